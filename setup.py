@@ -1,0 +1,32 @@
+"""ament_python setup for robot_control (works with colcon and with pip)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'robot_control'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    package_data={PACKAGE: ['urdf/*.urdf']},
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+        ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE + '/urdf', glob(PACKAGE + '/urdf/*.urdf')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='robot_control developers',
+    maintainer_email='robot_control@example.com',
+    description='Computed-torque, force and hybrid control of manipulators, with a PyBullet bridge.',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'controller_node = robot_control.controller_node:main',
+            'sim_bridge_node = sim_bridge.bridge_node:main',
+        ],
+    },
+)

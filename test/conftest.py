@@ -1,0 +1,26 @@
+"""Test fixtures: DDS stays on loopback, on a domain id private to this test run (DESIGN §6)."""
+import os
+import sys
+
+import pytest
+
+# Before anything imports rclpy: never let discovery leave this machine.
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+os.environ.pop('ROS_STATIC_PEERS', None)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+
+@pytest.fixture
+def ros_context():
+    """A fresh rclpy context for one test, shut down afterwards."""
+    import rclpy
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        yield ctx
+    finally:
+        rclpy.try_shutdown(context=ctx)
