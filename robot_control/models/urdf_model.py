@@ -1,0 +1,272 @@
+"""UrdfModel: RobotModel of any URDF robot through Pinocchio (M, C, g, fk, J, Jdot qd).
+
+    M(q) qdd + C(q, qd) qd + g(q) = tau, with q, qd, tau ordered as the `joints` argument.
+
+The URDF's other movable joints are locked (pin.buildReducedModel) at `q_locked` or at the
+neutral configuration. Task space: the 3-D position of frame `tip` in the world frame;
+J and Jdot qd are expressed in LOCAL_WORLD_ALIGNED axes (world axes at the tip point).
+Units SI; gravity is a world vector, default (0, 0, -9.81) m/s^2.
+"""
+import os
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+
+import numpy as np
+import pinocchio as pin
+
+from robot_control import validation
+from robot_control.models.base import RobotModel
+
+#: directory of the shipped URDFs (robot_control/urdf)
+URDF_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'urdf')
+
+
+def _search_dirs():
+    dirs = [URDF_DIR]
+    try:
+        import pybullet_data  # data-only package: does not import pybullet
+        dirs.append(pybullet_data.getDataPath())
+    except ImportError:
+        pass
+    return dirs
+
+
+def resolve_urdf(name):
+    """Absolute path of URDF `name`: a shipped file in robot_control/urdf/ ('polar_two_link'
+    or 'polar_two_link.urdf'), a pybullet_data relative path ('kuka_iiwa/model.urdf'), or an
+    existing file path. ValueError naming `name` when none exists."""
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f'name: expected a URDF file name, got {name!r}')
+    candidates = []
+    if not os.path.isabs(name):
+        for base in _search_dirs():
+            candidates.append(os.path.join(base, name))
+            if not name.endswith('.urdf'):
+                candidates.append(os.path.join(base, name + '.urdf'))
+    candidates.append(name)
+    for path in candidates:
+        if os.path.isfile(path):
+            return os.path.abspath(path)
+    raise ValueError(f'name: no URDF file {name!r} in {_search_dirs()} nor as a path')
+
+
+def _read_urdf(urdf):
+    """(xml text, description) from a URDF XML string, a file path or a resolvable name."""
+    if not isinstance(urdf, (str, os.PathLike)):
+        raise ValueError(f'urdf: expected a file path or URDF XML text, got {type(urdf).__name__}')
+    text = os.fspath(urdf)
+    if text.lstrip().startswith('<'):
+        return text, 'URDF XML string'
+    path = text if os.path.isfile(text) else _resolve_or_none(text)
+    if path is None:
+        raise ValueError(f'urdf: no such file {text!r} (nor shipped or in pybullet_data)')
+    with open(path, encoding='utf-8') as f:
+        return f.read(), path
+
+
+def _resolve_or_none(name):
+    try:
+        return resolve_urdf(name)
+    except ValueError:
+        return None
+
+
+def _parse(xml, where):
+    """Pinocchio model of URDF text; ValueError naming `urdf` on anything malformed."""
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError as exc:
+        raise ValueError(f'urdf: {where} is not well-formed XML: {exc}') from None
+    if root.tag != 'robot':
+        raise ValueError(f'urdf: {where} has root element <{root.tag}>, expected <robot>')
+    try:
+        return pin.buildModelFromXML(xml)
+    except (ValueError, RuntimeError) as exc:
+        raise ValueError(f'urdf: {where} is not a valid URDF: {exc}') from None
+
+
+class UrdfModel(RobotModel):
+    """Rigid-body dynamics of URDF robot `urdf` restricted to `joints`, via Pinocchio.
+
+    urdf: file path, URDF XML text, or a name resolve_urdf() knows ('kuka_iiwa/model.urdf').
+    joints: joint names in the order of every joint-space vector (default: all movable joints
+      in URDF tree order). Only 1-DOF joints (revolute, prismatic) can be selected.
+    tip: frame (link) name for fk/J/Jdot_qd; None -> no task space.
+    q_locked: positions of the other joints, a mapping {name: position} (rad or m; unnamed
+      ones at neutral), or a full Pinocchio configuration (length of the URDF's nq).
+    gravity: world gravity vector, m/s^2.
+    """
+
+    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -9.81)):
+        gravity = validation.vector('gravity', gravity, 3)
+        if isinstance(joints, str):
+            joints = (joints,)
+        if joints is not None:
+            try:
+                joints = validation.names('joints', joints)
+            except TypeError:
+                raise ValueError(f'joints: expected a sequence of joint names, got {joints!r}') from None
+        xml, where = _read_urdf(urdf)
+        full = _parse(xml, where)
+        self.source = where                  # file path, or 'URDF XML string'
+        movable = tuple(full.names[1:])
+        joints = movable if joints is None else joints
+        unknown = [j for j in joints if j not in movable]
+        if unknown:
+            raise ValueError(f'joints: unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+        if not joints:
+            raise ValueError('joints: expected at least one joint')
+        for name in joints:
+            jm = full.joints[full.getJointId(name)]
+            if jm.nq != 1 or jm.nv != 1:
+                raise ValueError(f'joints: {name!r} is a {jm.shortname()} (nq={jm.nq}, nv={jm.nv}); '
+                                 'only 1-DOF revolute/prismatic joints can be selected')
+        q_ref = self._reference(full, movable, joints, q_locked)
+        lock = [full.getJointId(n) for n in movable if n not in joints]
+        model = pin.buildReducedModel(full, lock, q_ref) if lock else full
+        model.gravity = pin.Motion(gravity, np.zeros(3))
+
+        self.joint_names = tuple(joints)
+        self.model = model                   # pinocchio Model (treat as read-only)
+        self._data = model.createData()      # scratch, reused by every call
+        ids = [model.getJointId(n) for n in joints]
+        self._iq = np.array([model.joints[i].idx_q for i in ids])
+        self._iv = np.array([model.joints[i].idx_v for i in ids])
+        self._ix = np.ix_(self._iv, self._iv)
+        self._q = pin.neutral(model)         # model.nq == n: every remaining joint is selected
+        self._v = np.zeros(model.nv)
+        self._a = np.zeros(model.nv)
+        self._zero = np.zeros(model.nv)
+        self._effort = self._limit(model.effortLimit[self._iv])
+        self._lower = model.lowerPositionLimit[self._iq].copy()
+        self._upper = model.upperPositionLimit[self._iq].copy()
+        self._velocity = self._limit(model.velocityLimit[self._iv])
+
+        if tip is None:
+            self.tip, self.frame_id, self.task_axes = None, None, ()
+        else:
+            if not isinstance(tip, str) or not model.existFrame(tip):
+                links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
+                raise ValueError(f'tip: unknown frame {tip!r}; the URDF\'s links are {links}')
+            body = model.existFrame(tip, pin.FrameType.BODY)   # a link, rather than a joint of that name
+            fid = model.getFrameId(tip, pin.FrameType.BODY) if body else model.getFrameId(tip)
+            self.tip, self.frame_id, self.task_axes = tip, fid, ('x', 'y', 'z')
+
+    @staticmethod
+    def _limit(values):
+        """URDF limits as an array; 0 (unset) or non-finite means no limit (inf)."""
+        out = np.array(values, dtype=float)
+        out[~(np.isfinite(out) & (out > 0.0))] = np.inf
+        return out
+
+    @staticmethod
+    def _reference(full, movable, joints, q_locked):
+        q_ref = pin.neutral(full)
+        if q_locked is None:
+            return q_ref
+        if isinstance(q_locked, Mapping):
+            for name, value in q_locked.items():
+                if name not in movable:
+                    raise ValueError(f'q_locked: unknown joint {name!r}; '
+                                     f'the URDF\'s movable joints are {list(movable)}')
+                if name in joints:
+                    raise ValueError(f'q_locked: {name!r} is one of the selected joints, it cannot be locked')
+                x = validation.scalar(f'q_locked[{name!r}]', value)
+                jm = full.joints[full.getJointId(name)]
+                if jm.nq == 1:
+                    q_ref[jm.idx_q] = x
+                elif jm.nq == 2 and jm.nv == 1:   # continuous joint: (cos, sin)
+                    q_ref[jm.idx_q:jm.idx_q + 2] = (np.cos(x), np.sin(x))
+                else:
+                    raise ValueError(f'q_locked: {name!r} is a {jm.shortname()}; give a full configuration instead')
+            return q_ref
+        return validation.vector('q_locked', q_locked, full.nq).copy()
+
+    # -- limits ------------------------------------------------------------------------------
+    @property
+    def effort_limit(self):
+        """URDF <limit effort> per joint, N m or N, (n,); inf where the URDF sets none (0)."""
+        return self._effort.copy()
+
+    @property
+    def velocity_limit(self):
+        """URDF <limit velocity> per joint, rad/s or m/s, (n,); inf where unset."""
+        return self._velocity.copy()
+
+    @property
+    def position_limits(self):
+        """(lower, upper) URDF position limits per joint, rad or m, each (n,)."""
+        return self._lower.copy(), self._upper.copy()
+
+    # -- helpers -----------------------------------------------------------------------------
+    def _set_q(self, q):
+        self._q[self._iq] = validation.vector('q', q, self.n)
+        return self._q
+
+    def _set_v(self, qd, name='qd'):
+        self._v[self._iv] = validation.vector(name, qd, self.n)
+        return self._v
+
+    def _set_a(self, qdd, name='qdd'):
+        self._a[self._iv] = validation.vector(name, qdd, self.n)
+        return self._a
+
+    def _require_tip(self):
+        if self.frame_id is None:
+            raise NotImplementedError('UrdfModel has no task space: construct it with tip=<frame name>')
+
+    # -- joint space -------------------------------------------------------------------------
+    def M(self, q):
+        """Mass matrix (CRBA, symmetrized from its upper triangle), (n, n)."""
+        m = np.triu(pin.crba(self.model, self._data, self._set_q(q)))
+        m = m + np.triu(m, 1).T
+        return m[self._ix]
+
+    def C(self, q, qd):
+        """Coriolis matrix (Pinocchio's, with Mdot - 2C skew), (n, n)."""
+        return pin.computeCoriolisMatrix(self.model, self._data, self._set_q(q), self._set_v(qd))[self._ix]
+
+    def C_qd(self, q, qd):
+        """C(q, qd) qd = rnea(q, qd, 0) - g(q), (n,)."""
+        qp, vp = self._set_q(q), self._set_v(qd)
+        h = pin.rnea(self.model, self._data, qp, vp, self._zero)[self._iv]
+        return h - pin.computeGeneralizedGravity(self.model, self._data, qp)[self._iv]
+
+    def g(self, q):
+        """Gravity torque g(q), (n,)."""
+        return pin.computeGeneralizedGravity(self.model, self._data, self._set_q(q))[self._iv].copy()
+
+    def inverse_dynamics(self, q, qd, qdd):
+        """tau = M qdd + C qd + g by RNEA, (n,)."""
+        tau = pin.rnea(self.model, self._data, self._set_q(q), self._set_v(qd), self._set_a(qdd))
+        return tau[self._iv].copy()
+
+    def forward_dynamics(self, q, qd, tau):
+        """qdd = M^-1 (tau - C qd - g) by ABA, (n,)."""
+        qdd = pin.aba(self.model, self._data, self._set_q(q), self._set_v(qd), self._set_a(tau, 'tau'))
+        return qdd[self._iv].copy()
+
+    # -- task space --------------------------------------------------------------------------
+    def fk(self, q):
+        """World position of the tip frame's origin, m, (3,)."""
+        self._require_tip()
+        pin.forwardKinematics(self.model, self._data, self._set_q(q))
+        return pin.updateFramePlacement(self.model, self._data, self.frame_id).translation.copy()
+
+    def J(self, q):
+        """Linear Jacobian of the tip point, world axes (LOCAL_WORLD_ALIGNED), (3, n)."""
+        self._require_tip()
+        jac = pin.computeFrameJacobian(self.model, self._data, self._set_q(q), self.frame_id,
+                                       pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        return jac.reshape(6, self.model.nv)[:3, self._iv]   # eigenpy returns (6,) when nv == 1
+
+    def Jdot_qd(self, q, qd):
+        """Jdot qd of the tip point: its classical acceleration at qdd = 0, world axes, (3,)."""
+        self._require_tip()
+        pin.forwardKinematics(self.model, self._data, self._set_q(q), self._set_v(qd), self._zero)
+        acc = pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id,
+                                                pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        return acc.linear.copy()
+
+    def __repr__(self):
+        return f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r})'
