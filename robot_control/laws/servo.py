@@ -1,0 +1,140 @@
+"""The servo portion of the partitioned law (lecture 2.2.1) and the integral of the error.
+
+Notation: E = q_d - q, Ed = qd_d - qd, int E = the running integral of E. Gains are the diagonals
+of Kp, Kv, Ki, each (n,), read from any object with attributes kp, kv, ki (robot_control.gains
+.ServoGains); ki may be absent or None (no integral action).
+"""
+import numpy as np
+
+from robot_control import validation
+
+
+def bool_mask(name, value, n):
+    """`value` as a bool (n,) array, or ValueError naming `name` (wrong length or not booleans)."""
+    a = np.asarray(value)
+    if a.dtype != np.bool_:
+        raise ValueError(f'{name}: expected a boolean mask, got dtype {a.dtype}')
+    if a.shape != (n,):
+        raise ValueError(f'{name}: expected length {n}, got shape {a.shape}')
+    return a
+
+
+def limit_vector(name, value, n):
+    """A per-entry positive bound, (n,) array; a scalar is broadcast, +inf means unbounded."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f'{name}: expected a number or {n} numbers, got {value!r}') from exc
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    if a.shape != (n,):
+        raise ValueError(f'{name}: expected a scalar or length {n}, got shape {a.shape}')
+    if np.any(np.isnan(a)) or not np.all(a > 0.0):
+        raise ValueError(f'{name}: expected positive bounds (inf allowed), got {a.tolist()}')
+    return a
+
+
+def per_entry(name, value, k):
+    """A finite scalar broadcast to (k,), or a finite (k,) array, or ValueError naming `name`."""
+    a = validation.vector(name, value)
+    if a.shape[0] == 1 and k != 1:
+        return np.full(k, a[0])
+    return validation.vector(name, a, k)
+
+
+def vectors(n, **named):
+    """Each named value as a finite float64 (n,) array, in order; ValueError names the first bad one.
+
+    One batched finiteness check on the fast path; validation.vector() words the error.
+    """
+    try:
+        arrays = [np.asarray(value, dtype=float) for value in named.values()]
+    except (TypeError, ValueError):
+        arrays = None
+    if arrays is None or not (all(a.shape == (n,) for a in arrays) and np.isfinite(np.concatenate(arrays)).all()):
+        arrays = [validation.vector(name, value, n) for name, value in named.items()]
+    return arrays
+
+
+def gain_arrays(gains, n, name='gains'):
+    """(kp, kv, ki) from `gains`, each a finite non-negative (n,) array; a missing ki is zeros."""
+    kp, kv = getattr(gains, 'kp', None), getattr(gains, 'kv', None)
+    if kp is None or kv is None:
+        raise ValueError(f'{name}: expected an object with kp, kv, ki (ServoGains), got {gains!r}')
+    ki = getattr(gains, 'ki', None)
+    ki = np.zeros(n) if ki is None else ki
+    out = vectors(n, **{f'{name}.kp': kp, f'{name}.kv': kv, f'{name}.ki': ki})
+    for attr, a in zip(('kp', 'kv', 'ki'), out):
+        if (a < 0.0).any():
+            raise ValueError(f'{name}.{attr}: expected non-negative gains, got {a.tolist()}')
+    return tuple(out)
+
+
+def check_finite(name, value):
+    """Return `value` if every entry is finite; else ValueError naming `name` (an overflow upstream)."""
+    if not np.isfinite(value).all():
+        raise ValueError(f'{name}: non-finite result {np.asarray(value).tolist()} from finite inputs')
+    return value
+
+
+class Integral:
+    """int E dt by explicit Euler, value (n,): value_i += E_i dt unless held, then |value_i| <= limit_i.
+
+    `limit` (scalar or (n,), > 0, inf allowed) clamps the integral; the `hold` mask of update()
+    freezes entries (conditional-integration anti-windup: pass the saturation mask of saturate()).
+    """
+
+    def __init__(self, n, limit=np.inf):
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise ValueError(f'n: expected a positive integer, got {n!r}')
+        self._limit = limit_vector('limit', limit, int(n))
+        self._value = np.zeros(int(n))
+
+    @property
+    def n(self):
+        """Number of integrated entries."""
+        return self._value.shape[0]
+
+    @property
+    def limit(self):
+        """Clamp |value_i| <= limit_i, (n,) (read-only copy)."""
+        return self._limit.copy()
+
+    @property
+    def value(self):
+        """Current int E dt, (n,), units of E times s (read-only view)."""
+        view = self._value.view()
+        view.flags.writeable = False
+        return view
+
+    def reset(self):
+        """Set the integral to zero."""
+        self._value[:] = 0.0
+
+    def preset(self, value):
+        """Set the integral to `value` (clamped), e.g. for bumpless switching between laws."""
+        new = np.clip(validation.vector('value', value, self.n), -self._limit, self._limit)
+        self._value[:] = new
+
+    def update(self, E, dt, hold=None):
+        """value += E dt on entries not held, clamp to +-limit; E (n,), dt in s (>= 0). Returns value."""
+        E = validation.vector('E', E, self.n)
+        dt = validation.scalar('dt', dt, nonnegative=True)
+        held = np.zeros(self.n, bool) if hold is None else bool_mask('hold', hold, self.n)
+        with np.errstate(over='ignore', invalid='ignore'):  # overflow is reported below
+            new = np.clip(self._value + np.where(held, 0.0, E * dt), -self._limit, self._limit)
+        check_finite('E', new)
+        self._value[:] = new
+        return self.value
+
+
+def servo(qdd_d, E, Ed, gains, int_E=None):
+    """v = qdd_d + Kv Ed + Kp E + Ki int_E, all (n,); Kp in 1/s^2, Kv in 1/s, Ki in 1/s^3."""
+    qdd_d = validation.vector('qdd_d', qdd_d)
+    n = qdd_d.shape[0]
+    E, Ed = vectors(n, E=E, Ed=Ed)
+    kp, kv, ki = gain_arrays(gains, n)
+    v = qdd_d + kv * Ed + kp * E
+    if int_E is not None:
+        v = v + ki * validation.vector('int_E', int_E, n)
+    return check_finite('v', v)
