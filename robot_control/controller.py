@@ -1,0 +1,629 @@
+"""ControllerCore: the controller's per-tick work, without ROS (DESIGN §2, §4; issue 4).
+
+The node calls `update(t, q, qd, f_meas)` once per joint_states message and publishes the torque
+it returns. The core owns everything that persists between ticks:
+
+- the configuration snapshot, `ControllerConfig` (immutable; `configure()` swaps it in one
+  assignment, effective on the next tick; the loop never reads anything else),
+- the joint reference (robot_control.trajectory: hold / from_points), replaced without a jump,
+- the force reference on the force-controlled task axes (the same samplers on forces, N),
+- the error integral (robot_control.laws.Integral) with clamp and conditional-integration
+  anti-windup, and the effort saturation (robot_control.laws.saturate),
+- preallocated buffers for the reference, the errors and the torque.
+
+Laws (`law`):
+  computed_torque    tau = M(q) v + C(q, qd) qd + g(q), v = qdd_d + Kv Ed + Kp E (+ Ki int E)
+  independent_joint  tau = Kp E + Kv Ed (+ Ki int E) per joint (torque gains, no model)
+  force              tau = m v + f, v = (fdd_d + kv Ef_dot + kp Ef (+ ki int Ef)) / k_e (1 DOF)
+  hybrid             operational-space hybrid position/force control (laws.hybrid): motion
+                     reference x_d = fk(q_d), xd_d = J(q_d) qd_d, xdd_d = J(q_d) qdd_d + Jdot qd_d
+                     on the motion axes, force reference on the force axes, posture q_d.
+Force feedback on the force axes: 'sensor' uses the measured force f_meas (N, along each task
+axis, exerted by the robot on the environment); 'model' the lecture's spring f = k_e (x - x_e).
+In both cases fdot = k_e xd (the lecture's f_dot = k_e x_dot; no differentiation of a noisy
+sensor); out of contact with sensor feedback this damps the approach velocity.
+
+Time: `t` is in seconds on any time base that increases (the node uses the joint_states stamps).
+If t goes backwards (a simulator reset) the core restarts as after a watchdog trip.
+
+Start and restart (first tick, after `stop()`, after time went backwards): the integral is
+reset, the joint reference holds the measured position q (zero velocity and acceleration) and
+the force reference ramps from the measured force to its target over `force_ramp_time`.
+
+Bumpless switching (documented behaviour, tested):
+- Changing gains, the integral flag, the model or the force parameters keeps the references;
+  changing the law between computed_torque and independent_joint keeps them too. Switching
+  to or from force/hybrid restarts the references from the current state (the joint reference
+  of a force-controlled axis is meaningless), as at start.
+- On the first tick after any such change the integral is re-initialised: when the new law has
+  integral action it is set (least squares over the entries with ki > 0, then clamped to
+  integral_limit) so that the new law's torque equals the last torque sent; without integral
+  action it is zero. The torque therefore never jumps by more than what the new law implies:
+  it equals the new law evaluated at (state, reference, re-initialised integral).
+- Effort limits, move_time and force_ramp_time changes take effect without touching the state.
+
+Anti-windup: entry i of the integral is frozen on a tick if on the previous tick joint i was
+saturated and E_i had the sign of its torque (integrating would push further into the limit);
+for the task-space integral of the hybrid law every entry is frozen while any joint saturates.
+
+Fallback: if the law fails (non-finite result, singular task Jacobian) the core sends the
+gravity-hold torque g(q) (saturated) instead and counts it (`fallbacks`, `last_fallback`).
+
+Not thread-safe: call every method from one thread (the node's executor does).
+"""
+import dataclasses
+import math
+
+import numpy as np
+
+from robot_control import validation
+from robot_control.gains import ServoGains
+from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, independent_joint, saturate
+from robot_control.laws.servo import limit_vector
+from robot_control.models.base import RobotModel
+from robot_control.trajectory import from_points, hold
+
+LAWS = ('computed_torque', 'independent_joint', 'force', 'hybrid')
+JOINT_LAWS = ('computed_torque', 'independent_joint')
+TASK_LAWS = ('force', 'hybrid')
+FORCE_FEEDBACK = ('sensor', 'model')
+
+
+def _frozen(a):
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ControllerConfig:
+    """Immutable snapshot of everything the per-tick computation reads (validated on creation).
+
+    model: RobotModel (the controller's own, closed form or URDF).
+    law: 'computed_torque' | 'independent_joint' | 'force' | 'hybrid'.
+    gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for
+      computed torque; N m/rad ... torque gains for independent_joint), (m,) or one per motion
+      axis for hybrid; unused by 'force'.
+    force_gains: ServoGains (k,) one per force axis (force and hybrid laws), None otherwise.
+    integral: integral action on (ki used) or off (ki ignored, no integral state).
+    integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
+    effort_limit: (n,) N m or N, > 0 (inf allowed); None = model.effort_limit.
+    joints: joint names in model order; None = model.joint_names.
+    force_axes: names of the force-controlled task axes (subset of model.task_axes).
+    k_e, x_e: environment stiffness (N/m, > 0) and location (m) per force axis.
+    force_feedback: 'sensor' | 'model'.
+    posture_gains: (kp0 1/s^2, kv0 1/s) of the null-space posture (hybrid, redundant arms).
+    move_time: duration of a set_goal() move, s (> 0).
+    force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
+    """
+
+    model: RobotModel
+    law: str = 'computed_torque'
+    gains: ServoGains = None
+    force_gains: ServoGains = None
+    integral: bool = False
+    integral_limit: float = math.inf
+    effort_limit: np.ndarray = None
+    joints: tuple = None
+    force_axes: tuple = ()
+    k_e: np.ndarray = ()
+    x_e: np.ndarray = ()
+    force_feedback: str = 'sensor'
+    posture_gains: tuple = (25.0, 10.0)
+    move_time: float = 2.0
+    force_ramp_time: float = 0.5
+
+    def __post_init__(self):
+        model = self.model
+        if not isinstance(model, RobotModel):
+            raise ValueError(f'model: expected a RobotModel, got {type(model).__name__}')
+        n, m = model.n, model.task_dim
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        if self.law not in LAWS:
+            raise ValueError(f'law: unknown {self.law!r}; expected one of {list(LAWS)}')
+        if self.force_feedback not in FORCE_FEEDBACK:
+            raise ValueError(f'force_feedback: unknown {self.force_feedback!r}; expected one of {list(FORCE_FEEDBACK)}')
+        joints = model.joint_names if self.joints is None else self.joints
+        joints = validation.names('joints', joints)
+        if len(joints) != n:
+            raise ValueError(f'joints: expected {n} names (the model has {n} joints {list(model.joint_names)}), '
+                             f'got {list(joints)}')
+        set_('joints', joints)
+        set_('integral', bool(self.integral))
+        set_('integral_limit', float(limit_vector('integral_limit', self.integral_limit, 1)[0]))
+        limit = model.effort_limit if self.effort_limit is None else self.effort_limit
+        set_('effort_limit', _frozen(limit_vector('effort_limits', limit, n)))
+        axes = tuple(self.force_axes)
+        unknown = [a for a in axes if a not in model.task_axes]
+        if unknown:
+            raise ValueError(f'force_axes: {unknown} not among the model\'s task axes {list(model.task_axes)}')
+        if len(set(axes)) != len(axes):
+            raise ValueError(f'force_axes: duplicate axes in {list(axes)}')
+        set_('force_axes', tuple(a for a in model.task_axes if a in axes))  # task-axis order
+        mask = np.array([a in axes for a in model.task_axes], dtype=bool)
+        mask.flags.writeable = False
+        set_('_force_mask', mask)
+        k = len(axes)
+        order = [axes.index(a) for a in self.force_axes]  # k_e, x_e were given in `axes` order
+        k_e = validation.vector('k_e', self.k_e, k)[order] if k else np.zeros(0)
+        if np.any(k_e <= 0.0):
+            raise ValueError(f'k_e: expected positive stiffness (N/m), got {k_e.tolist()}')
+        set_('k_e', _frozen(k_e))
+        set_('x_e', _frozen(validation.vector('x_e', self.x_e, k)[order] if k else np.zeros(0)))
+        kp0, kv0 = (validation.scalar(name, v, nonnegative=True)
+                    for name, v in zip(('posture_kp', 'posture_kv'), self.posture_gains))
+        set_('posture_gains', (kp0, kv0))
+        set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
+        set_('force_ramp_time', validation.scalar('force_ramp_time', self.force_ramp_time, nonnegative=True))
+        self._check_law(n, m, k)
+
+    def _check_law(self, n, m, k):
+        law = self.law
+        if law in JOINT_LAWS:
+            if not isinstance(self.gains, ServoGains) or self.gains.n != n:
+                got = self.gains.n if isinstance(self.gains, ServoGains) else self.gains
+                raise ValueError(f'kp: expected {n} gains (one per joint) for law {law}, got {got}')
+            return
+        if m == 0:
+            raise ValueError(f'law: {law} needs a task space; the model has none (set tip for a URDF model)')
+        if law == 'force':
+            if n != 1 or m != 1:
+                raise ValueError(f'law: force is the 1-DOF force servo; the model has {n} joints and '
+                                 f'{m} task axes (use hybrid)')
+            if k != 1:
+                raise ValueError(f'force_axes: law force needs its task axis {list(self.model.task_axes)}, '
+                                 f'got {list(self.force_axes)}')
+        if law == 'hybrid':
+            if m > n:
+                raise ValueError(f'law: hybrid needs task dimension <= joints; the model has {m} task axes '
+                                 f'{list(self.model.task_axes)} and {n} joints')
+            motion = m - k
+            if motion and (not isinstance(self.gains, ServoGains) or self.gains.n not in (m, motion)):
+                got = self.gains.n if isinstance(self.gains, ServoGains) else self.gains
+                raise ValueError(f'kp: expected {m} gains (one per task axis) or {motion} (one per motion '
+                                 f'axis) for law hybrid, got {got}')
+        if k and (not isinstance(self.force_gains, ServoGains) or self.force_gains.n != k):
+            got = self.force_gains.n if isinstance(self.force_gains, ServoGains) else self.force_gains
+            raise ValueError(f'force_kp: expected {k} gains (one per force axis), got {got}')
+
+    # -- derived -------------------------------------------------------------------------------
+    @property
+    def n(self):
+        """Number of joints."""
+        return self.model.n
+
+    @property
+    def force_mask(self):
+        """Bool (m,) over the model's task axes: True on the force axes (read-only)."""
+        return self._force_mask
+
+    @property
+    def integral_dim(self):
+        """Entries of the error integral: n (joint laws), 1 (force), m (hybrid)."""
+        return {'force': 1, 'hybrid': self.model.task_dim}.get(self.law, self.n)
+
+    def integral_ki(self):
+        """Ki per integral entry (zeros when integral is off)."""
+        dim = self.integral_dim
+        if not self.integral:
+            return np.zeros(dim)
+        if self.law in JOINT_LAWS:
+            return np.array(self.gains.ki)
+        if self.law == 'force':
+            return np.array(self.force_gains.ki)
+        mask = self.force_mask
+        ki = np.zeros(dim)
+        if self.force_gains is not None and self.force_axes:
+            ki[mask] = self.force_gains.ki
+        motion = ~mask
+        if motion.any() and self.gains is not None:
+            g = np.asarray(self.gains.ki)
+            ki[motion] = g[motion] if g.shape[0] == dim else g
+        return ki
+
+    def law_key(self):
+        """What the law computes with; a change triggers bumpless re-initialisation."""
+        def arrays(g):
+            return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
+        return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
+                self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback,
+                self.posture_gains, self.integral_limit)
+
+    def replace(self, **changes):
+        """A copy with `changes` (validated)."""
+        return dataclasses.replace(self, **changes)
+
+
+class ControllerCore:
+    """Per-tick controller: update(t, q, qd, f_meas) -> tau, saturated and finite.
+
+    config: ControllerConfig. See the module docstring for start/restart, bumpless switching,
+    anti-windup and fallback. Returned arrays are internal buffers, overwritten next tick.
+    """
+
+    def __init__(self, config):
+        if not isinstance(config, ControllerConfig):
+            raise ValueError(f'config: expected a ControllerConfig, got {type(config).__name__}')
+        self._cfg = config
+        n = config.n
+        self._q_d, self._qd_d, self._qdd_d = np.zeros(n), np.zeros(n), np.zeros(n)
+        self._tau = np.zeros(n)
+        self._tau_prev = np.zeros(n)
+        self._has_prev = False
+        self._sat = np.zeros(n, dtype=bool)
+        self._traj = None
+        self._pending = None
+        self._goal = None
+        self._t = None
+        self.active = False
+        self._reinit = False
+        self._restart = False
+        # statistics
+        self.ticks = 0
+        self.saturated_ticks = 0
+        self.saturation_counts = np.zeros(n, dtype=np.int64)
+        self.fallbacks = 0
+        self.last_fallback = ''
+        self.restarts = 0
+        self._setup_force(config, keep_target=False)
+        self._setup_buffers(config)
+        self._integral = self._make_integral(config)
+
+    # -- configuration -----------------------------------------------------------------------
+    @property
+    def config(self):
+        """The active ControllerConfig."""
+        return self._cfg
+
+    def _setup_force(self, cfg, keep_target):
+        """Force reference state for cfg.force_axes (the target is kept if the axes are unchanged)."""
+        k = len(cfg.force_axes)
+        old = getattr(self, '_f_target', None)
+        self._f_target = old if keep_target and old is not None and old.shape[0] == k else np.zeros(k)
+        self._f_d, self._fd_d, self._fdd_d = np.zeros(k), np.zeros(k), np.zeros(k)
+        self._force_traj = hold(self._f_target) if k else None
+
+    def _setup_buffers(self, cfg):
+        """Reference/error buffers in the law's space (joints, force axis or task axes)."""
+        dim = cfg.integral_dim
+        self._ref = (np.zeros(dim), np.zeros(dim), np.zeros(dim))
+        self._E, self._Ed = np.zeros(dim), np.zeros(dim)
+        self._ref_names = cfg.joints if cfg.law in JOINT_LAWS else (
+            cfg.force_axes if cfg.law == 'force' else cfg.model.task_axes)
+
+    @staticmethod
+    def _make_integral(cfg):
+        return Integral(cfg.integral_dim, cfg.integral_limit)
+
+    def configure(self, config):
+        """Swap in a new ControllerConfig, effective on the next tick (joints cannot change)."""
+        if not isinstance(config, ControllerConfig):
+            raise ValueError(f'config: expected a ControllerConfig, got {type(config).__name__}')
+        old = self._cfg
+        if config.joints != old.joints:
+            raise ValueError(f'joints: cannot change at run time ({list(old.joints)} -> {list(config.joints)})')
+        law_changed = config.law != old.law
+        restart = law_changed and (old.law in TASK_LAWS or config.law in TASK_LAWS)
+        restart = restart or config.force_axes != old.force_axes
+        relevant = config.law_key() != old.law_key()
+        if config.integral_dim != old.integral_dim or config.integral_limit != old.integral_limit:
+            integral = self._make_integral(config)
+            if integral.n == self._integral.n:
+                integral.preset(self._integral.value)
+            self._integral = integral
+        if config.force_axes != old.force_axes:
+            self._setup_force(config, keep_target=False)
+        if config.law != old.law:
+            self._setup_buffers(config)
+        self._cfg = config
+        if self.active:
+            self._reinit = self._reinit or relevant
+            self._restart = self._restart or restart
+
+    # -- references ----------------------------------------------------------------------------
+    @property
+    def t(self):
+        """Time of the last tick, s (None before the first)."""
+        return self._t
+
+    def _require_active(self, what):
+        if not self.active:
+            raise ValueError(f'{what}: no state received yet (the current state is the implicit start)')
+
+    def set_trajectory(self, times, positions, velocities=None, accelerations=None, t_start=None):
+        """Replace the joint reference by a path through points, like joint_trajectory_controller.
+
+        times: time_from_start (k,) s, > 0, increasing; positions (k, n); velocities/accelerations
+        (k, n) or None. t_start: start time on the update() time base; None = the last tick.
+        The new path starts from the current reference sampled at its start, so the reference
+        (q_d, qd_d, qdd_d) is continuous. A start in the future keeps the current reference until
+        then; a start in the past drops the points already due (all due: ValueError).
+        Returns the start time actually used.
+        """
+        self._require_active('trajectory')
+        n = self._cfg.n
+        times = validation.vector('times', times)
+        positions = validation.matrix('positions', positions, (times.shape[0], n))
+        t_now = self._t
+        t_start = t_now if t_start is None else validation.scalar('t_start', t_start)
+        if t_start < t_now:
+            keep = t_start + times > t_now
+            if not keep.any():
+                raise ValueError(f'times: the trajectory ended {t_now - (t_start + times[-1]):.6g} s ago')
+            times = t_start + times[keep] - t_now
+            positions = positions[keep]
+            velocities = None if velocities is None else np.asarray(velocities, dtype=float)[keep]
+            accelerations = None if accelerations is None else np.asarray(accelerations, dtype=float)[keep]
+            t_start = t_now
+        start = self._traj.sample(t_start)
+        traj = from_points(t_start, start, times, positions, velocities, accelerations)
+        if t_start > t_now:
+            self._pending = traj
+        else:
+            self._traj, self._pending = traj, None
+        return t_start
+
+    def set_goal(self, q_goal, duration=None):
+        """Quintic move of the joint reference to q_goal (n,) over `duration` s (default move_time).
+
+        Starts from the current reference (continuous position, velocity, acceleration). Before
+        the first state it becomes the first move from the measured start position.
+        """
+        q_goal = validation.vector('q_goal', q_goal, self._cfg.n)
+        duration = self._cfg.move_time if duration is None else validation.scalar('duration', duration, positive=True)
+        if not self.active:
+            self._goal = (q_goal.copy(), duration)
+            return
+        start = self._traj.sample(self._t)
+        self._traj = from_points(self._t, start, [duration], [q_goal])
+        self._pending = None
+
+    def set_force_reference(self, f_target):
+        """Ramp the force reference to f_target (k,) N per force axis over force_ramp_time."""
+        k = len(self._cfg.force_axes)
+        f_target = validation.vector('f_d', f_target, k)
+        self._f_target = f_target.copy()
+        if self.active and k:
+            self._force_traj = self._ramp(self._t, self._force_traj.sample(self._t), f_target)
+
+    def _ramp(self, t, start, target):
+        ramp = self._cfg.force_ramp_time
+        if ramp <= 0.0:
+            return hold(target, t)
+        return from_points(t, start, [ramp], [target])
+
+    @property
+    def force_target(self):
+        """The force reference's target per force axis, N (copy)."""
+        return self._f_target.copy()
+
+    def reference_at(self, t):
+        """(q_d, qd_d, qdd_d) the joint reference would give at time t (new arrays)."""
+        self._require_active('reference')
+        traj = self._pending if self._pending is not None and t >= self._pending.t0 else self._traj
+        return traj.sample(t)
+
+    # -- lifecycle -----------------------------------------------------------------------------
+    def stop(self):
+        """Stop (watchdog): the next update() restarts from the then-current state."""
+        self.active = False
+        self._pending = None
+        self._reinit = self._restart = False
+
+    def _start_references(self, t, q, f):
+        self._traj = hold(q, t)
+        self._pending = None
+        if self._goal is not None:
+            goal, duration = self._goal
+            self._goal = None
+            self._traj = from_points(t, (q, None, None), [duration], [goal])
+        if self._cfg.force_axes:
+            start = self._f_target if f is None else f
+            self._force_traj = self._ramp(t, (start, None, None), self._f_target)
+
+    # -- the tick --------------------------------------------------------------------------------
+    def update(self, t, q, qd, f_meas=None):
+        """Torque (n,) for the state (q, qd) at time t (s); f_meas (m,) measured task forces, N.
+
+        f_meas is required with force_feedback 'sensor' when the law uses forces. The result is
+        finite and within +-effort_limit; it is an internal buffer overwritten next tick.
+        """
+        cfg = self._cfg
+        model = cfg.model
+        t = validation.scalar('t', t)
+        q = validation.vector('q', q, cfg.n)
+        qd = validation.vector('qd', qd, cfg.n)
+        if cfg.law in TASK_LAWS:
+            x, xd, f_axes, fdot_axes = self._task_state(cfg, q, qd, f_meas)
+        else:
+            f_axes = None
+        dt = 0.0
+        if not self.active or t < self._t:
+            if self._t is not None:
+                self.restarts += 1
+            self._start_references(t, q, f_axes)
+            self._integral.reset()
+            self._reinit = self._restart = False
+            self.active = True
+        else:
+            dt = t - self._t
+            if self._restart:
+                self._start_references(t, q, f_axes)
+                self._restart = False
+        self._t = t
+        if self._pending is not None and t >= self._pending.t0:
+            self._traj, self._pending = self._pending, None
+        self._traj.sample_into(t, self._q_d, self._qd_d, self._qdd_d)
+        if cfg.force_axes:
+            self._force_traj.sample_into(t, self._f_d, self._fd_d, self._fdd_d)
+
+        if cfg.law in JOINT_LAWS:
+            evaluate = self._joint_law(cfg, q, qd)
+        elif cfg.law == 'force':
+            evaluate = self._force_law(cfg, q, f_axes, fdot_axes)
+        else:
+            evaluate = self._hybrid_law(cfg, q, qd, x, xd, f_axes, fdot_axes)
+
+        int_E = None
+        if cfg.integral:
+            if self._reinit:
+                self._reinitialise(cfg, evaluate)
+            elif dt > 0.0:
+                self._integral.update(self._E, dt, hold=self._hold_mask(cfg))
+            int_E = self._integral.value
+        elif self._reinit:
+            self._integral.reset()
+        self._reinit = False
+
+        try:
+            tau = evaluate(int_E)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            tau = self._fallback(model, q, exc)
+        tau, sat = saturate(tau, cfg.effort_limit)
+        self._tau[:] = tau
+        self._sat[:] = sat
+        self._tau_prev[:] = tau
+        self._has_prev = True
+        self.ticks += 1
+        if sat.any():
+            self.saturated_ticks += 1
+            self.saturation_counts += sat
+        return self._tau
+
+    def _fallback(self, model, q, exc):
+        self.fallbacks += 1
+        self.last_fallback = str(exc)
+        g = np.asarray(model.g(q), dtype=float)
+        if not np.all(np.isfinite(g)):
+            raise ValueError(f'tau: law failed ({exc}) and the gravity-hold fallback is not finite') from exc
+        return g
+
+    def _task_state(self, cfg, q, qd, f_meas):
+        model = cfg.model
+        x = np.asarray(model.fk(q), dtype=float)
+        xd = np.asarray(model.J(q), dtype=float) @ qd
+        mask = cfg.force_mask
+        if not mask.any():
+            return x, xd, np.zeros(0), np.zeros(0)
+        if cfg.force_feedback == 'model':
+            # the lecture's f = k_e (x - x_e), fdot = k_e xd: laws.spring_force(..., sign=0), inlined
+            # because spring_force's argument checks cost more than the rest of the tick
+            f = cfg.k_e * (x[mask] - cfg.x_e)
+            fdot = cfg.k_e * xd[mask]
+        else:
+            if f_meas is None:
+                raise ValueError("f_meas: required with force_feedback 'sensor'")
+            f = validation.vector('f_meas', f_meas, model.task_dim)[mask]
+            fdot = cfg.k_e * xd[mask]
+        return x, xd, f, fdot
+
+    def _joint_law(self, cfg, q, qd):
+        np.subtract(self._q_d, q, out=self._E)
+        np.subtract(self._qd_d, qd, out=self._Ed)
+        ref = self._ref
+        ref[0][:], ref[1][:], ref[2][:] = self._q_d, self._qd_d, self._qdd_d
+        if cfg.law == 'computed_torque':
+            return lambda int_E: computed_torque(cfg.model, q, qd, self._q_d, self._qd_d, self._qdd_d,
+                                                 cfg.gains, int_E)
+        return lambda int_E: independent_joint(q, qd, self._q_d, self._qd_d, cfg.gains, int_E)
+
+    def _force_law(self, cfg, q, f, fdot):
+        np.subtract(self._f_d, f, out=self._E)
+        np.subtract(self._fd_d, fdot, out=self._Ed)
+        ref = self._ref
+        ref[0][:], ref[1][:], ref[2][:] = self._f_d, self._fd_d, self._fdd_d
+        m_x = float(cfg.model.M(q)[0, 0])
+        k_e = float(cfg.k_e[0])
+        return lambda int_E: force_1dof(m_x, f, fdot, self._f_d, self._fd_d, self._fdd_d, k_e,
+                                        cfg.force_gains, int_E)
+
+    def _hybrid_law(self, cfg, q, qd, x, xd, f, fdot):
+        model = cfg.model
+        mask = cfg.force_mask
+        Jd = np.asarray(model.J(self._q_d), dtype=float)
+        pos, vel, acc = self._ref
+        pos[:] = model.fk(self._q_d)
+        np.dot(Jd, self._qd_d, out=vel)
+        np.dot(Jd, self._qdd_d, out=acc)
+        acc += model.Jdot_qd(self._q_d, self._qd_d)
+        f_m, fdot_m = np.zeros(model.task_dim), np.zeros(model.task_dim)
+        K_e = np.ones(model.task_dim)
+        if mask.any():
+            pos[mask], vel[mask], acc[mask] = self._f_d, self._fd_d, self._fdd_d
+            f_m[mask], fdot_m[mask], K_e[mask] = f, fdot, cfg.k_e
+        self._E[:] = np.where(mask, pos - f_m, pos - x)
+        self._Ed[:] = np.where(mask, vel - fdot_m, vel - xd)
+        gains_T = cfg.gains if (~mask).any() else None
+        gains_N = cfg.force_gains if mask.any() else None
+        q_posture = self._q_d
+        return lambda int_E: hybrid(model, q, qd, pos, vel, acc, pos, vel, acc, f_m, fdot_m, mask, K_e,
+                                    gains_T, gains_N, q_posture=q_posture, k_posture=cfg.posture_gains,
+                                    int_E=int_E)
+
+    def _hold_mask(self, cfg):
+        """Anti-windup: which integral entries to freeze this tick (from the last tick's saturation)."""
+        if not self._sat.any():
+            return None
+        if cfg.law == 'hybrid':
+            return np.ones(self._integral.n, dtype=bool)
+        return self._sat & (self._E * self._tau_prev > 0.0)
+
+    def _reinitialise(self, cfg, evaluate):
+        """Bumpless transfer: integral such that the new law's torque equals the last torque sent."""
+        dim = self._integral.n
+        ki = cfg.integral_ki()
+        cols = np.flatnonzero(ki > 0.0)
+        self._integral.reset()
+        if not self._has_prev or cols.size == 0:
+            return
+        z = np.zeros(dim)
+        try:
+            tau0 = np.array(evaluate(z))
+            B = np.empty((tau0.shape[0], cols.size))
+            for c, j in enumerate(cols):
+                z[j] = 1.0
+                B[:, c] = evaluate(z) - tau0
+                z[j] = 0.0
+            sol = np.linalg.lstsq(B, self._tau_prev - tau0, rcond=None)[0]
+        except (ValueError, np.linalg.LinAlgError):
+            return
+        if np.all(np.isfinite(sol)):
+            z[cols] = sol
+            self._integral.preset(z)
+
+    # -- what the node publishes -------------------------------------------------------------------
+    @property
+    def tau(self):
+        """Torque of the last tick, (n,), N m or N."""
+        return self._tau
+
+    @property
+    def saturated(self):
+        """Bool (n,): joints at their effort limit on the last tick."""
+        return self._sat
+
+    @property
+    def reference_names(self):
+        """Names of the reference/error entries: the joints (joint laws) or the task axes (force: force axis)."""
+        return self._ref_names
+
+    @property
+    def reference(self):
+        """(pos, vel, acc) of the last tick: q_d, qd_d, qdd_d (joint laws); per task axis x_d, xd_d,
+        xdd_d on motion axes and f_d, fd_d, fdd_d on force axes (N, N/s, N/s^2) for force/hybrid."""
+        return self._ref
+
+    @property
+    def joint_reference(self):
+        """(q_d, qd_d, qdd_d) of the last tick, (n,) each (for every law)."""
+        return self._q_d, self._qd_d, self._qdd_d
+
+    @property
+    def error(self):
+        """(E, Ed) of the last tick, named like reference: q_d - q (joint laws), f_d - f / x_d - x (task)."""
+        return self._E, self._Ed
+
+    @property
+    def integral_value(self):
+        """The error integral (integral_dim,) used on the last tick (zeros when integral is off)."""
+        return self._integral.value

@@ -1,0 +1,406 @@
+"""controller_node: the ROS 2 layer around ControllerCore (DESIGN §5, issue 4).
+
+Topics (names relative, remappable; QoS from robot_control.qos):
+  sub joint_states                sensor_msgs/JointState       CONTROL_QOS   robot state, by name
+  sub ~/joint_trajectory          trajectory_msgs/JointTrajectory REFERENCE_QOS joint reference
+  sub ~/wrench_reference          geometry_msgs/WrenchStamped  REFERENCE_QOS desired force (force axes)
+  sub ft_sensor/wrench            geometry_msgs/WrenchStamped  CONTROL_QOS   measured contact force
+  pub robot_joint_commands        sensor_msgs/JointState       CONTROL_QOS   name + effort
+  pub effort_controller/commands  std_msgs/Float64MultiArray   CONTROL_QOS   if publish_effort_array
+  pub ~/reference                 sensor_msgs/JointState       REFERENCE_QOS reference of the tick
+  pub ~/error                     sensor_msgs/JointState       REFERENCE_QOS tracking error of the tick
+  pub /diagnostics                diagnostic_msgs/DiagnosticArray DIAGNOSTICS_QOS  every diagnostics_period
+
+Event-driven: each valid joint_states message gets exactly one command, computed from the
+reference sampled at that message's header.stamp (the node clock's now() if the stamp is zero)
+and stamped with the same stamp. An invalid one (a controlled joint missing, duplicate names,
+position/velocity lengths not matching name, NaN/inf in a controlled joint) gets no command, a
+count and a reason on /diagnostics and a throttled warning. Names that are not controlled are
+ignored, as ros2_control users expect from a joint_states shared with other hardware.
+
+~/reference and ~/error carry, per entry of the law's space (joints for computed_torque and
+independent_joint; task axes for hybrid; the force axis for force):
+  ~/reference: position = q_d | x_d | f_d, velocity = first derivative, effort = second
+               derivative (JointState has no acceleration field);
+  ~/error:     position = E, velocity = Ed, effort = the error integral int E (zeros without
+               integral action). On force axes the values are forces (N, N/s, N/s^2, N s).
+
+Trajectories: like joint_trajectory_controller (names in any order, exactly the controlled
+joints, strictly increasing time_from_start > 0, finite values, velocities/accelerations in
+every point or none). header.stamp zero = start at the last state's time; the current reference
+is the implicit first point, so a new trajectory replaces the active one without a jump in the
+reference; the last point is held. A single point is a quintic point-to-point move. Accepted
+only while the controller runs (after the first state, not while the watchdog is tripped).
+
+Watchdog: a timer on the node clock (sim time when use_sim_time) checks that a joint_states
+arrived within state_timeout; if not, the core stops (nothing is commanded anyway: commands
+only answer states) and /diagnostics reports ERROR at once. When states return, the core
+restarts: integral reset, reference = hold the current position (no torque jump beyond what the
+law gives for zero error). Note: with use_sim_time, a stopped /clock also stops the watchdog
+(no simulated time passes); /diagnostics runs on the wall clock and keeps reporting.
+
+Parameters: robot_control.params (declared once, validated in one on-set callback whose reason
+names the parameter; applied in the post-set callback by swapping the core's configuration
+snapshot; nothing reads the parameter server per tick).
+
+Run: python -m robot_control.controller_node --ros-args --params-file config/polar_two_link.yaml
+(the YAML's top key `controller` is the node name; use `/**:` for a renamed node).
+"""
+import sys
+import time
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
+
+from robot_control import conversions
+from robot_control.controller import ControllerCore
+from robot_control.params import ControllerParameters, ParameterError
+from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_QOS
+
+#: rejected-input sources, in the order /diagnostics lists them
+INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
+#: smallest watchdog check period, s
+MIN_WATCHDOG_PERIOD = 0.001
+#: throttle of the warnings about rejected input, s
+WARN_THROTTLE = 1.0
+
+
+class TickStats:
+    """Wall time of the joint_states callback (message in -> command published), ns."""
+
+    def __init__(self):
+        self.count = 0
+        self.total_ns = 0
+        self.max_ns = 0
+        self.last_ns = 0
+
+    def add(self, ns):
+        self.count += 1
+        self.total_ns += ns
+        self.last_ns = ns
+        self.max_ns = max(self.max_ns, ns)
+
+    @property
+    def mean_us(self):
+        return self.total_ns / self.count / 1e3 if self.count else 0.0
+
+
+class ControllerNode(Node):
+    """Computed-torque / independent-joint / force / hybrid controller over ROS 2 topics.
+
+    kwargs go to rclpy.node.Node (context=, parameter_overrides=, cli_args=, ...). Raises
+    ParameterError naming the parameter when the start-up parameters are invalid.
+    """
+
+    def __init__(self, node_name='controller', **kwargs):
+        super().__init__(node_name, **kwargs)
+        try:
+            self._setup()
+        except BaseException:
+            self.destroy_node()
+            raise
+
+    def _setup(self):
+        self._params = ControllerParameters(self)
+        snapshot = self._params.current
+        cfg = snapshot.config
+        self._core = ControllerCore(cfg)
+        self._joints = cfg.joints
+        self._task_axes = cfg.model.task_axes
+        self._reader = conversions.JointStateReader(cfg.joints)
+        self._command = conversions.EffortCommand(cfg.joints)
+        self._effort_array = Float64MultiArray()
+        self._reference_msg = JointState()
+        self._error_msg = JointState()
+        self._f_meas = np.zeros(len(self._task_axes))
+        self._wrench_seen = False
+        self._epoch_ns = None
+        self._last_state_ns = None      # node clock at the last valid joint_states
+        self._tripped = False
+        self.trips = 0
+        self.rejected = dict.fromkeys(INPUTS, 0)
+        self.last_rejection = ''
+        self.commands_sent = 0
+        self.trajectories_accepted = 0
+        self.tick_stats = TickStats()
+        self._pending = None
+        self._apply_references(snapshot.values, initial=True)
+
+        self._cmd_pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_QOS)
+        self._array_pub = None
+        self._set_array_publisher(snapshot.values['publish_effort_array'])
+        self._ref_pub = self.create_publisher(JointState, '~/reference', REFERENCE_QOS)
+        self._err_pub = self.create_publisher(JointState, '~/error', REFERENCE_QOS)
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_states, CONTROL_QOS)
+        self.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory, REFERENCE_QOS)
+        self.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference, REFERENCE_QOS)
+        self.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor, CONTROL_QOS)
+
+        self._watchdog = None
+        self._diag_timer = None
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._set_watchdog(snapshot.values['state_timeout'])
+        self._set_diagnostics_timer(snapshot.values['diagnostics_period'])
+
+        self.add_pre_set_parameters_callback(self._params.coerce)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._post_set_parameters)
+        self.get_logger().info(
+            f'ready: law {cfg.law}{" (PID)" if cfg.integral else ""}, model {snapshot.values["model"]}, '
+            f'joints {list(cfg.joints)}, force axes {list(cfg.force_axes)}, '
+            f'kp {cfg.gains.kp.tolist() if cfg.gains is not None else []}')
+
+    # -- public for tests and tools ----------------------------------------------------------------
+    @property
+    def core(self):
+        """The ControllerCore (read it, do not drive it from another thread)."""
+        return self._core
+
+    @property
+    def watchdog_tripped(self):
+        """True while no joint_states arrived within state_timeout."""
+        return self._tripped
+
+    @property
+    def wrench_received(self):
+        """True once a valid ft_sensor/wrench arrived."""
+        return self._wrench_seen
+
+    # -- state -> command ------------------------------------------------------------------------
+    def _on_joint_states(self, msg):
+        t_in = time.perf_counter_ns()
+        try:
+            q, qd = self._reader.read(msg)
+        except ValueError as exc:
+            self._reject('joint_states', exc)
+            return
+        now_ns = self.get_clock().now().nanoseconds
+        stamp_ns = conversions.stamp_to_ns(msg.header.stamp) or now_ns
+        if self._epoch_ns is None:
+            self._epoch_ns = stamp_ns
+        self._last_state_ns = now_ns
+        recovered = self._tripped
+        if recovered:
+            self._tripped = False
+            self.get_logger().info('joint_states are back: restarting from the current state')
+        try:
+            tau = self._core.update((stamp_ns - self._epoch_ns) * 1e-9, q, qd, self._f_meas)
+        except ValueError as exc:  # defensive: the core falls back to gravity hold before this
+            self._reject('joint_states', f'controller: {exc}')
+            return
+        self._cmd_pub.publish(self._command.fill(tau, stamp_ns))
+        if self._array_pub is not None:
+            self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
+        self.commands_sent += 1
+        self.tick_stats.add(time.perf_counter_ns() - t_in)
+        names = self._core.reference_names
+        pos, vel, acc = self._core.reference
+        E, Ed = self._core.error
+        self._ref_pub.publish(conversions.joint_state(names, stamp_ns, pos, vel, acc, out=self._reference_msg))
+        self._err_pub.publish(conversions.joint_state(names, stamp_ns, E, Ed, self._core.integral_value,
+                                                      out=self._error_msg))
+        if recovered:
+            self._publish_diagnostics()
+
+    def _on_ft_sensor(self, msg):
+        try:
+            f = conversions.wrench_force(msg, self._task_axes)
+        except ValueError as exc:  # keep the last valid measurement
+            self._reject('ft_sensor_wrench', exc)
+            return
+        self._f_meas[:] = f
+        self._wrench_seen = True
+
+    def _time_of(self, stamp_ns):
+        """A message stamp on the core's time base (None for a zero stamp = now)."""
+        if stamp_ns == 0 or self._epoch_ns is None:
+            return None
+        return (stamp_ns - self._epoch_ns) * 1e-9
+
+    def _on_trajectory(self, msg):
+        try:
+            goal = conversions.trajectory_goal(msg, self._joints)
+            if not self._core.active:
+                raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
+            t0 = self._core.set_trajectory(goal.times, goal.positions, goal.velocities, goal.accelerations,
+                                           t_start=self._time_of(goal.stamp_ns))
+        except ValueError as exc:
+            self._reject('joint_trajectory', exc)
+            return
+        self.trajectories_accepted += 1
+        self.get_logger().info(f'trajectory accepted: {goal.times.shape[0]} points over {goal.times[-1]:g} s '
+                               f'from t = {t0:.6f} s')
+
+    def _on_wrench_reference(self, msg):
+        axes = self._core.config.force_axes
+        try:
+            if not axes:
+                raise ValueError('no force axes configured (parameter force_axes)')
+            f_d = conversions.wrench_force(msg, axes)
+            self._core.set_force_reference(f_d)
+        except ValueError as exc:
+            self._reject('wrench_reference', exc)
+            return
+        self.get_logger().info(f'force reference {dict(zip(axes, f_d.tolist()))} N')
+
+    def _reject(self, source, reason):
+        self.rejected[source] += 1
+        self.last_rejection = f'{source}: {reason}'
+        self.get_logger().warning(f'rejected {self.last_rejection}', throttle_duration_sec=WARN_THROTTLE)
+
+    # -- watchdog and diagnostics ------------------------------------------------------------------
+    def _set_watchdog(self, timeout):
+        if self._watchdog is not None:
+            self.destroy_timer(self._watchdog)
+        self._state_timeout = timeout
+        self._watchdog = self.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog)
+
+    def _check_watchdog(self):
+        if self._tripped or self._last_state_ns is None or not self._core.active:
+            return
+        age = (self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9
+        if age > self._state_timeout:
+            self._tripped = True
+            self.trips += 1
+            self._core.stop()
+            self.get_logger().error(f'no joint_states for {age:.3f} s (state_timeout {self._state_timeout:g} s): '
+                                    'stopped commanding')
+            self._publish_diagnostics()
+
+    def _set_diagnostics_timer(self, period):
+        if self._diag_timer is not None:
+            self.destroy_timer(self._diag_timer)
+        self._diag_timer = self.create_timer(period, self._publish_diagnostics, clock=self._steady)
+
+    def diagnostics(self):
+        """The DiagnosticStatus list /diagnostics carries now."""
+        name = self.get_fully_qualified_name().lstrip('/')
+        core, cfg = self._core, self._core.config
+        hw = name
+        if self._tripped:
+            age = (self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9
+            watchdog = ('ERROR', f'no joint_states for {age:.3f} s (state_timeout {self._state_timeout:g} s): '
+                                 'not commanding')
+        elif self._last_state_ns is None:
+            watchdog = ('WARN', 'waiting for the first joint_states')
+        else:
+            watchdog = ('OK', 'receiving joint_states')
+        status = [conversions.diagnostic_status(
+            f'{name}: joint_states watchdog', *watchdog,
+            {'state_timeout_s': self._state_timeout, 'trips': self.trips, 'restarts': core.restarts,
+             'commands_sent': self.commands_sent}, hw)]
+        sat = [j for j, s in zip(cfg.joints, core.saturated) if s]
+        status.append(conversions.diagnostic_status(
+            f'{name}: effort saturation', 'WARN' if sat else 'OK',
+            f'saturated: {sat}' if sat else 'within effort limits',
+            [('saturated_ticks', core.saturated_ticks), ('ticks', core.ticks)]
+            + [(f'saturated_ticks.{j}', int(c)) for j, c in zip(cfg.joints, core.saturation_counts)]
+            + [(f'effort_limit.{j}', float(v)) for j, v in zip(cfg.joints, cfg.effort_limit)], hw))
+        total = sum(self.rejected.values())
+        status.append(conversions.diagnostic_status(
+            f'{name}: rejected inputs', 'WARN' if total else 'OK',
+            f'{total} rejected; last {self.last_rejection}' if total else 'no rejected input',
+            [(f'rejected.{k}', v) for k, v in self.rejected.items()] + [('last_reason', self.last_rejection)], hw))
+        level, message = 'OK', f'{cfg.law}{" PID" if cfg.integral else ""}'
+        if core.fallbacks:
+            level, message = 'WARN', f'{message}; gravity-hold fallbacks: {core.fallbacks} (last: {core.last_fallback})'
+        needs_sensor = cfg.force_axes and cfg.law in ('force', 'hybrid') and cfg.force_feedback == 'sensor'
+        if needs_sensor and not self._wrench_seen:
+            level, message = 'WARN', f'{message}; no ft_sensor/wrench received (force taken as 0)'
+        status.append(conversions.diagnostic_status(
+            f'{name}: control law', level, message,
+            [('law', cfg.law), ('integral', cfg.integral), ('fallbacks', core.fallbacks),
+             ('tick_mean_us', round(self.tick_stats.mean_us, 1)),
+             ('tick_max_us', round(self.tick_stats.max_ns / 1e3, 1)), ('ticks', self.tick_stats.count)], hw))
+        return status
+
+    def _publish_diagnostics(self):
+        self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(),
+                                                            self.get_clock().now().nanoseconds))
+
+    # -- parameters ------------------------------------------------------------------------------
+    def _on_set_parameters(self, parameters):
+        try:
+            self._pending = (parameters, self._params.validate(parameters))
+        except ParameterError as exc:
+            self._pending = None
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _post_set_parameters(self, parameters):
+        pending, self._pending = self._pending, None
+        if pending is None or pending[0] is not parameters:
+            pending = (parameters, self._params.validate(parameters))  # not expected: validated above
+        snapshot = pending[1]
+        old = self._params.current.values
+        self._params.commit(snapshot)
+        self._core.configure(snapshot.config)
+        changed = {p.name for p in parameters}
+        values = snapshot.values
+        self._apply_references(values, changed=changed, old=old)
+        if 'state_timeout' in changed:
+            self._set_watchdog(values['state_timeout'])
+        if 'diagnostics_period' in changed:
+            self._set_diagnostics_timer(values['diagnostics_period'])
+        if 'publish_effort_array' in changed:
+            self._set_array_publisher(values['publish_effort_array'])
+        self.get_logger().info(f'parameters set: {sorted(changed)}')
+
+    def _apply_references(self, values, initial=False, changed=(), old=None):
+        k = len(self._core.config.force_axes)
+        if values['q_d'] and (initial or 'q_d' in changed):
+            self._core.set_goal(values['q_d'])
+        if k and (initial or 'f_d' in changed or values['force_axes'] != old['force_axes']):
+            self._core.set_force_reference(values['f_d'] or np.zeros(k))
+
+    def _set_array_publisher(self, enabled):
+        if enabled and self._array_pub is None:
+            self._array_pub = self.create_publisher(Float64MultiArray, 'effort_controller/commands', CONTROL_QOS)
+        elif not enabled and self._array_pub is not None:
+            self.destroy_publisher(self._array_pub)
+            self._array_pub = None
+
+
+def main(args=None):
+    """Entry point: spin the controller until Ctrl-C / SIGTERM (exit 0); 1 on invalid parameters.
+
+    rclpy.init installs handlers for SIGINT and SIGTERM that shut the context down; the executor
+    is created before the node so that a signal arriving during start-up also ends cleanly.
+    """
+    rclpy.init(args=args)
+    executor = SingleThreadedExecutor()
+    node = None
+    code = 0
+    try:
+        node = ControllerNode()
+        executor.add_node(node)
+        executor.spin()
+    except ParameterError as exc:
+        rclpy.logging.get_logger('controller').fatal(f'invalid parameter {exc}')
+        code = 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:
+        if rclpy.ok():
+            raise
+        # the context was shut down by a signal while the node was being created
+    finally:
+        executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())
