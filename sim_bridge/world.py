@@ -1,0 +1,415 @@
+"""The PyBullet world: the "real robot" of every scenario (DESIGN §3, §5). No rclpy, no messages.
+
+    M(q) qdd + C(q, qd) qd + g(q) = tau + tau_env,   tau = clip(command, effort limits)
+
+tau_env holds what the world adds: the mass-spring's -k x^3 - b xd, contact with the surface,
+and the configured disturbance. Units SI (rad, m, N m, N, s); time is kept as integer
+nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True).
+
+PyBullet facts respected (DESIGN §5): URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
+base; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
+(default 0.04) and URDF joint damping zeroed; the torque is re-sent before every stepSimulation
+(PyBullet clears applied torques after each step); fixed step dt without substeps.
+"""
+import math
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from robot_control import scenarios, validation
+from robot_control.models import make_model, urdf_gen
+from sim_bridge import surfaces
+from sim_bridge.disturbance import Disturbance
+
+#: world gravity when neither the scenario nor `params` sets one, m/s^2
+DEFAULT_GRAVITY = 9.81
+#: brake holding force where the URDF sets no effort limit, N m or N
+UNLIMITED_BRAKE = 1.0e6
+
+
+@dataclass
+class _Spec:
+    """Everything needed to (re)build the world: resolved once, used by every build."""
+
+    urdf: str                 # file PyBullet loads
+    joints: tuple
+    q0: np.ndarray
+    gravity: float            # m/s^2, along world -z
+    tip: str                  # link name or None
+    closed_form: bool
+    task_axes: tuple
+    surface: object           # scenarios.Surface or None
+    surface_damping: float    # N s/m
+    spring: tuple             # (k N/m^3, b N s/m) of mass_spring_cubic, or None
+
+
+def _find_urdf(name):
+    """Absolute path of `name`: an existing path, a shipped file (robot_control/urdf) or pybullet_data."""
+    if not isinstance(name, (str, os.PathLike)) or not os.fspath(name).strip():
+        raise ValueError(f'urdf: expected a URDF file path, got {name!r}')
+    name = os.fspath(name)
+    import pybullet_data
+    for base in ('', urdf_gen.SHIPPED_DIR, pybullet_data.getDataPath()):
+        for candidate in (os.path.join(base, name), os.path.join(base, name + '.urdf')):
+            if os.path.isfile(candidate):
+                return os.path.abspath(candidate)
+    raise ValueError(f'urdf: no such file {name!r} (nor in {urdf_gen.SHIPPED_DIR} or pybullet_data)')
+
+
+def _scenario(scenario):
+    if scenario is None or isinstance(scenario, scenarios.Scenario):
+        return scenario
+    if isinstance(scenario, str):
+        return scenarios.get(scenario)
+    raise ValueError(f'scenario: expected a name, a Scenario or None, got {scenario!r}')
+
+
+def _truth(sc, params):
+    """(physical parameters, closed-form model or None, gravity m/s^2) of the simulated robot."""
+    if params is not None and not hasattr(params, 'keys'):
+        raise ValueError(f'params: expected a mapping of physical parameters, got {params!r}')
+    params = dict(params or {})
+    base = dict(sc.params) if sc is not None else {}
+    truth, model = {**base, **params}, None
+    if sc is None or sc.model == 'urdf':
+        unknown = sorted(set(params) - {'gravity'})
+        if unknown:
+            raise ValueError(f'params: unknown {unknown} for a URDF robot; only gravity can be set')
+    else:
+        try:
+            model = make_model(sc.model, **truth)
+        except ValueError as exc:
+            raise ValueError(f'params: {exc}') from None
+    gravity = validation.scalar('params.gravity', truth.get('gravity', DEFAULT_GRAVITY), nonnegative=True)
+    return truth, model, gravity
+
+
+def _surface(sc, surface):
+    if surface is True:
+        return sc.surface if sc is not None else None
+    if surface is False or surface is None:
+        return None
+    return surfaces.check_surface(surface)
+
+
+def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir):
+    """The build specification; every check that can fail before PyBullet runs."""
+    truth, model, gravity = _truth(sc, params)
+    closed_form = model is not None
+    if urdf is not None:
+        path = _find_urdf(urdf)
+    elif sc is None:
+        raise ValueError('urdf: required when scenario is None')
+    elif closed_form and truth != dict(sc.params):
+        path = urdf_gen.write_urdf(os.path.join(tmpdir, f'{sc.model}.urdf'), sc.model, **truth)
+    else:
+        path = _find_urdf(sc.urdf or sc.model)
+    if joints is None and sc is None:
+        raise ValueError('joints: required when scenario is None')
+    joints = validation.names('joints', sc.joints if joints is None else joints)
+    if not joints:
+        raise ValueError('joints: expected at least one joint')
+    start = q0 if q0 is not None else (sc.q0 if sc is not None else np.zeros(len(joints)))
+    q0 = validation.vector('q0', start, len(joints))
+    if tip is None and sc is not None:
+        tip = sc.tip or ('tip' if closed_form else None)   # urdf_gen names the closed forms' end link 'tip'
+    task_axes = model.task_axes if closed_form else ('x', 'y', 'z')
+    wall = _surface(sc, surface)
+    if wall is not None and tip is None:
+        raise ValueError('surface: needs a tip link (tip=...)')
+    if wall is not None and not closed_form:
+        path = surfaces.probe_urdf(path, tip, tmpdir)
+    spring = (model.k, model.b) if closed_form and sc.model == 'mass_spring_cubic' else None
+    damping = validation.scalar('surface_damping', surface_damping, nonnegative=True)
+    return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring)
+
+
+class World:
+    """A PyBullet world stepping one robot under a held joint torque.
+
+    scenario: name or Scenario (robot_control.scenarios), or None with urdf= and joints=.
+    gui: open the PyBullet GUI instead of DIRECT. dt: physics step, s (a whole number of ns).
+    params: physical overrides of the simulated robot (e.g. {'m': 2.5}: heavier than the
+      controller's model); closed-form URDFs are regenerated; 'gravity' (m/s^2) for any robot.
+    urdf, joints, q0, tip: override the scenario's URDF file, joint names (command order),
+      start positions (rad or m) and tip link.
+    surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.
+    disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
+    """
+
+    def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
+                 surface=True, disturbance=None, tip=None, surface_damping=0.0):
+        self.scenario = _scenario(scenario)
+        self.dt_ns = self._dt_ns(dt)
+        self.dt = self.dt_ns * 1e-9
+        self._tmpdir = tempfile.mkdtemp(prefix='sim_bridge_')
+        self._client = None
+        try:
+            self._spec = _resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
+                                  self._tmpdir)
+            self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
+            self._client = p.connect(p.GUI if gui else p.DIRECT)
+            if self._client < 0:
+                raise RuntimeError('pybullet: cannot connect a physics client')
+            self._build(self._spec.q0)
+        except BaseException:
+            self.close()
+            raise
+
+    @staticmethod
+    def _dt_ns(dt):
+        dt = validation.scalar('dt', dt, positive=True)
+        dt_ns = round(dt * 1e9)
+        if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
+            raise ValueError(f'dt: expected a whole number of nanoseconds, got {dt} s')
+        return dt_ns
+
+    # -- properties ----------------------------------------------------------------------------
+    @property
+    def n(self):
+        """Number of controlled joints."""
+        return len(self._spec.joints)
+
+    @property
+    def joint_names(self):
+        """Controlled joint names, in the order of every joint vector."""
+        return self._spec.joints
+
+    @property
+    def effort_limit(self):
+        """Per-joint effort limit from the URDF, N m or N, (n,); inf where the URDF sets none."""
+        return self._limit.copy()
+
+    @property
+    def gravity(self):
+        """Gravitational acceleration along world -z, m/s^2."""
+        return self._spec.gravity
+
+    @property
+    def surface(self):
+        """The surface in the world (scenarios.Surface), or None."""
+        return self._spec.surface
+
+    @property
+    def tip(self):
+        """Tip link name (task point, Cartesian disturbance, contact probe), or None."""
+        return self._spec.tip
+
+    @property
+    def t(self):
+        """Simulation time, s (t_ns * 1e-9)."""
+        return self.t_ns * 1e-9
+
+    @property
+    def braked(self):
+        """True while the brakes hold the arm."""
+        return self._brake is not None
+
+    @property
+    def client(self):
+        """PyBullet physics client id of this world."""
+        return self._client
+
+    @property
+    def body(self):
+        """PyBullet body id of the robot."""
+        return self._body
+
+    # -- build ---------------------------------------------------------------------------------
+    def _build(self, q0):
+        """(Re)create the whole simulation from the spec, starting at q0: same inputs, same results."""
+        c, spec = self._client, self._spec
+        p.resetSimulation(physicsClientId=c)
+        p.setPhysicsEngineParameter(fixedTimeStep=self.dt, numSubSteps=0, contactSlop=0.0,
+                                    deterministicOverlappingPairs=1, physicsClientId=c)
+        p.setGravity(0.0, 0.0, -spec.gravity, physicsClientId=c)
+        try:
+            self._body = p.loadURDF(spec.urdf, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
+                                    physicsClientId=c)
+        except p.error as exc:
+            raise ValueError(f'urdf: PyBullet cannot load {spec.urdf}: {exc}') from None
+        self._index_joints()
+        self._zero_damping()
+        self._hold_other_joints()
+        p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
+                                    physicsClientId=c)
+        self._check_travel(q0)
+        for i, q in zip(self._idx, q0):
+            p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
+        self._wall = self._make_wall() if spec.surface is not None else None
+        self.t_ns = 0
+        self._tau = np.zeros(self.n)
+        self._brake = None
+
+    def _index_joints(self):
+        """PyBullet indices of the controlled joints and the tip link; effort limits."""
+        c, body = self._client, self._body
+        movable, links, limits, travel = {}, {}, {}, {}
+        for j in range(p.getNumJoints(body, physicsClientId=c)):
+            info = p.getJointInfo(body, j, physicsClientId=c)
+            links[info[12].decode()] = j
+            if info[2] != p.JOINT_FIXED:
+                movable[info[1].decode()] = j
+                limits[j] = info[10] if info[10] > 0.0 else math.inf
+                travel[j] = (info[8], info[9])
+        unknown = [name for name in self._spec.joints if name not in movable]
+        if unknown:
+            raise ValueError(f'joints: unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+        self._idx = [movable[name] for name in self._spec.joints]
+        self._travel = [travel[j] for j in self._idx]
+        self._others = [j for j in movable.values() if j not in self._idx]
+        self._limit = np.array([limits[j] for j in self._idx])
+        self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
+        tip = self._spec.tip
+        if tip is not None and tip not in links:
+            raise ValueError(f'tip: unknown link {tip!r}; the URDF\'s links are {list(links)}')
+        self._tip = links.get(tip) if tip is not None else None
+
+    def _check_travel(self, q0):
+        """q0 inside the URDF position limits (PyBullet enforces them: lower <= upper), or ValueError."""
+        for name, q, (lower, upper) in zip(self._spec.joints, q0, self._travel):
+            if lower <= upper and not lower <= q <= upper:
+                raise ValueError(f'q0: {name} = {q} is outside the URDF limits [{lower}, {upper}]')
+
+    def _zero_damping(self):
+        for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
+            p.changeDynamics(self._body, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                             physicsClientId=self._client)
+
+    def _hold_other_joints(self):
+        """Movable joints not controlled are locked at 0 (as UrdfModel locks them at neutral)."""
+        if self._others:
+            k = len(self._others)
+            p.setJointMotorControlArray(self._body, self._others, p.POSITION_CONTROL, targetPositions=[0.0] * k,
+                                        forces=[UNLIMITED_BRAKE] * k, physicsClientId=self._client)
+
+    def _make_wall(self):
+        spec = self._spec
+        normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
+        radius = surfaces.tip_radius(self._client, self._body, self._tip)
+        half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
+        return surfaces.Wall(self._client, spec.surface, normal, radius, self.tip_position(), spec.surface_damping,
+                             half)
+
+    def reset(self, q0=None):
+        """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
+        zero torque, brakes off. The disturbance in force is kept. Same inputs -> bit-identical run."""
+        q0 = self._spec.q0 if q0 is None else validation.vector('q0', q0, self.n)
+        self._check_travel(q0)          # before tearing the old world down
+        self._build(q0)
+
+    def close(self):
+        """Disconnect the physics client and delete temporary URDFs (idempotent)."""
+        if self._client is not None and self._client >= 0:
+            try:
+                p.disconnect(physicsClientId=self._client)
+            except p.error:
+                pass
+        self._client = None
+        if self._tmpdir is not None:
+            shutil.rmtree(self._tmpdir, ignore_errors=True)
+            self._tmpdir = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    # -- commands ------------------------------------------------------------------------------
+    def set_torque(self, tau):
+        """Hold joint torque `tau` (n,), N m or N, clipped to the effort limits, until changed.
+
+        Non-finite or wrong-length tau -> ValueError; the previous torque stays. Returns the
+        clipped torque (what will be applied; while braked it is stored for the release)."""
+        tau = validation.vector('tau', tau, self.n)
+        self._tau = np.clip(tau, -self._limit, self._limit)
+        return self._tau.copy()
+
+    def set_disturbance(self, joint_torque=None, cartesian_force=None):
+        """Replace the disturbance: joint_torque (n,) N m or N added at the joints, cartesian_force
+        (3,) N in world axes at the tip frame origin. None means zero; held until changed."""
+        self._disturbance = Disturbance(self.n, joint_torque, cartesian_force, self._tip is not None)
+
+    @property
+    def disturbance(self):
+        """(joint_torque (n,), cartesian_force (3,)) in force, read-only arrays."""
+        return self._disturbance.joint_torque, self._disturbance.cartesian_force
+
+    def brake(self, on):
+        """Engage (True) or release (False) the brakes.
+
+        Engaged: position motors hold the joint positions at engagement, with at most the effort
+        limit; the held torque command is not applied (it is kept for the release). Released: torque
+        control resumes with the held command."""
+        if bool(on) == self.braked:
+            return
+        c = self._client
+        if on:
+            self._brake = self.state()[0]
+            p.setJointMotorControlArray(self._body, self._idx, p.POSITION_CONTROL,
+                                        targetPositions=self._brake.tolist(), targetVelocities=[0.0] * self.n,
+                                        forces=self._brake_force, physicsClientId=c)
+        else:
+            self._brake = None
+            p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
+                                        physicsClientId=c)
+
+    # -- stepping ------------------------------------------------------------------------------
+    def step(self, k=1):
+        """Advance k physics steps of dt with the held torque (re-sent before every step)."""
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+            raise ValueError(f'k: expected a positive integer number of steps, got {k!r}')
+        for _ in range(int(k)):
+            self._apply_loads()
+            p.stepSimulation(physicsClientId=self._client)
+            self.t_ns += self.dt_ns
+
+    def _apply_loads(self):
+        """Joint torque (actuator unless braked, disturbance, mass-spring) and the Cartesian force."""
+        c, spec = self._client, self._spec
+        tau = self._disturbance.joint_torque + (0.0 if self.braked else self._tau)
+        if spec.spring is not None:
+            x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
+            tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
+        p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=tau.tolist(),
+                                    physicsClientId=c)
+        if self._disturbance.has_force:
+            p.applyExternalForce(self._body, self._tip, self._disturbance.cartesian_force.tolist(),
+                                 self.tip_position().tolist(), p.WORLD_FRAME, physicsClientId=c)
+
+    # -- readings ------------------------------------------------------------------------------
+    def state(self):
+        """(q (n,) rad or m, qd (n,) rad/s or m/s, tau_applied (n,) N m or N).
+
+        tau_applied is the actuator torque of the last step: the clipped command, or the brake
+        motors' torque while braked (environment loads and disturbances are not included)."""
+        states = p.getJointStates(self._body, self._idx, physicsClientId=self._client)
+        q = np.array([s[0] for s in states])
+        qd = np.array([s[1] for s in states])
+        tau = np.array([s[3] for s in states]) if self.braked else self._tau.copy()
+        return q, qd, tau
+
+    def tip_position(self):
+        """World position of the tip frame origin, m, (3,)."""
+        if self._tip is None:
+            raise ValueError('tip: this world has no tip link')
+        link = p.getLinkState(self._body, self._tip, computeForwardKinematics=True, physicsClientId=self._client)
+        return np.array(link[4])
+
+    def contact_wrench(self):
+        """(force (3,) N, torque (3,) N m) exerted by the robot on the surface, world axes, torque
+        about the world origin; zeros without a surface or contact. Valid after a step."""
+        if self._wall is None:
+            return np.zeros(3), np.zeros(3)
+        return self._wall.wrench(self._body)
