@@ -27,6 +27,7 @@ setup(
         'console_scripts': [
             'controller_node = robot_control.controller_node:main',
             'sim_bridge_node = sim_bridge.bridge_node:main',
+            'record = robot_control.record:main',
         ],
     },
 )

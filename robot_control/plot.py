@@ -1,0 +1,207 @@
+"""Tracking plots of a run (matplotlib, Agg canvas; no rclpy, no pyplot global state).
+
+`tracking_figure(data, path)` draws one column per joint (or task axis) and one row per quantity,
+all panels on a shared time axis:
+
+    row 1  position: desired q_d (dashed) and actual q          [rad or m, per joint]
+    row 2  error e = q_d - q                                     [rad or m]
+    row 3  effort tau applied, with +-effort limit if given      [N m for revolute, N for prismatic]
+    row 4  contact force f and its reference f_d (only if 'f')   [N]
+
+The input is a plain dict of numpy arrays (N samples, n coordinates, m effort channels, k force axes):
+
+    key            shape / type      meaning
+    'scenario'     str               scenario name, used in the title (required)
+    't'            (N,)              time [s], increasing
+    'joint_names'  n str             names of the plotted coordinates (joints, or task axes 'x', 'y')
+    'units'        n str             'rad' or 'm' per coordinate
+    'q', 'q_d'     (N, n)            actual and desired position [units]
+    'tau'          (N, m)            effort applied [N m or N]
+    optional:
+    'e'            (N, n)            tracking error; default q_d - q
+    'tau_names'    m str             effort channel names; default joint_names (then m == n)
+    'tau_units'    m str             'N m' or 'N' each; default from 'units' ('rad' -> 'N m', 'm' -> 'N')
+    'effort_limit' (m,)              |tau| limit per channel, drawn as dashed red lines (the axis keeps
+                                     the effort's own scale when it stays below 40 % of the limit)
+    'f'            (N, k)            measured contact force [N] (force exerted by the robot)
+    'f_d'          (N, k)            force reference [N]; NaN where an axis has no reference
+    'force_names'  k str             default 'f0', 'f1', ... ; e.g. ['x'] for the wall normal
+    'title'        str               extra text after the scenario name (law, gains, ...)
+
+NaN samples are allowed anywhere (not drawn). Shapes are checked; a bad entry is a ValueError whose
+message starts with the key, e.g. "data['q']: expected shape (500, 2), got (500, 3)".
+"""
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+__all__ = ['tracking_figure', 'check_tracking_data', 'EFFORT_UNIT']
+
+EFFORT_UNIT = {'rad': 'N m', 'm': 'N'}
+POSITION_UNITS = ('rad', 'm')
+COL_WIDTH_IN = 3.6
+ROW_HEIGHT_IN = 2.3
+DPI = 110
+
+
+def _names(key, value, n=None):
+    got = [str(s) for s in value]
+    if n is not None and len(got) != n:
+        raise ValueError(f"data['{key}']: expected {n} names, got {len(got)}")
+    return got
+
+
+def _array(key, value, shape):
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"data['{key}']: expected numbers, got {type(value).__name__}") from exc
+    if a.ndim == 1 and len(shape) == 2 and shape[1] == 1:
+        a = a.reshape(-1, 1)
+    if a.shape != tuple(shape):
+        raise ValueError(f"data['{key}']: expected shape {tuple(shape)}, got {a.shape}")
+    return a
+
+
+def check_tracking_data(data):
+    """Validate the plot input and return a normalised copy (arrays float64, defaults filled in)."""
+    if not isinstance(data, dict):
+        raise ValueError(f'data: expected a dict, got {type(data).__name__}')
+    for key in ('scenario', 't', 'joint_names', 'units', 'q', 'q_d', 'tau'):
+        if key not in data:
+            raise ValueError(f"data['{key}']: missing")
+    t = np.asarray(data['t'], dtype=float)
+    if t.ndim != 1 or t.size < 2:
+        raise ValueError(f"data['t']: expected a 1-D array of at least 2 samples, got shape {t.shape}")
+    N = t.size
+    names = _names('joint_names', data['joint_names'])
+    n = len(names)
+    if n == 0:
+        raise ValueError("data['joint_names']: expected at least one name")
+    units = _names('units', data['units'], n)
+    bad = [u for u in units if u not in POSITION_UNITS]
+    if bad:
+        raise ValueError(f"data['units']: expected 'rad' or 'm' each, got {bad}")
+    out = {'scenario': str(data['scenario']), 'title': str(data.get('title', '') or ''),
+           't': t, 'joint_names': names, 'units': units,
+           'q': _array('q', data['q'], (N, n)), 'q_d': _array('q_d', data['q_d'], (N, n))}
+    out['e'] = _array('e', data['e'], (N, n)) if data.get('e') is not None else out['q_d'] - out['q']
+    if data.get('tau_names') is not None:
+        tau_names = _names('tau_names', data['tau_names'])
+        m = len(tau_names)
+    else:
+        tau_names = names
+        m = n
+    out['tau'] = _array('tau', data['tau'], (N, m))
+    out['tau_names'] = tau_names
+    if data.get('tau_units') is not None:
+        out['tau_units'] = _names('tau_units', data['tau_units'], m)
+    elif data.get('tau_names') is None:
+        out['tau_units'] = [EFFORT_UNIT[u] for u in units]
+    else:
+        raise ValueError("data['tau_units']: required when 'tau_names' is given")
+    lim = data.get('effort_limit')
+    if lim is not None:
+        lim = np.abs(np.asarray(lim, dtype=float).reshape(-1))
+        if lim.shape != (m,):
+            raise ValueError(f"data['effort_limit']: expected shape ({m},), got {lim.shape}")
+    out['effort_limit'] = lim
+    if data.get('f') is not None:
+        f = np.asarray(data['f'], dtype=float)
+        k = 1 if f.ndim == 1 else (f.shape[1] if f.ndim == 2 else -1)
+        if k <= 0:
+            raise ValueError(f"data['f']: expected shape (N, k), got {f.shape}")
+        out['f'] = _array('f', f, (N, k))
+        out['f_d'] = _array('f_d', data['f_d'], (N, k)) if data.get('f_d') is not None else None
+        out['force_names'] = (_names('force_names', data['force_names'], k)
+                              if data.get('force_names') is not None else [f'f{i}' for i in range(k)])
+    else:
+        if data.get('f_d') is not None:
+            raise ValueError("data['f_d']: given without data['f']")
+        out['f'] = out['f_d'] = None
+        out['force_names'] = []
+    return out
+
+
+def _limit_lines(ax, limit, tau):
+    """Dashed +-limit lines. When the effort stays far below the limit (< 40 %), the axis keeps the
+    effort's own scale so its shape stays readable, and the legend says the limit is off scale."""
+    finite = tau[np.isfinite(tau)]
+    peak = float(np.max(np.abs(finite))) if finite.size else 0.0
+    off_scale = limit > 2.5 * peak
+    label = f'limit \u00b1{limit:g}' + (' (off scale)' if off_scale else '')
+    ax.axhline(limit, color='tab:red', linestyle='--', linewidth=0.9, label=label)
+    ax.axhline(-limit, color='tab:red', linestyle='--', linewidth=0.9)
+    if off_scale:
+        lo, hi = (float(np.min(finite)), float(np.max(finite))) if finite.size else (0.0, 0.0)
+        pad = 0.1 * (hi - lo) if hi > lo else max(0.1 * peak, 1e-3 * limit, 1e-9)
+        ax.set_ylim(lo - pad, hi + pad)
+
+
+def tracking_figure(data, path=None):
+    """Draw the tracking figure of `data` (see the module docstring) and save it as PNG.
+
+    path: file to write (e.g. 'out/demo/polar_two_link/tracking.png'), or an existing directory
+    (writes '<dir>/tracking.png'), or None (draw only). Returns the matplotlib Figure.
+    """
+    d = check_tracking_data(data)
+    t, n = d['t'], len(d['joint_names'])
+    m, k = len(d['tau_names']), len(d['force_names'])
+    rows = ['position', 'error', 'effort'] + (['force'] if k else [])
+    counts = {'position': n, 'error': n, 'effort': m, 'force': k}
+    ncols = max(counts[r] for r in rows)
+    fig = Figure(figsize=(COL_WIDTH_IN * ncols + 0.8, ROW_HEIGHT_IN * len(rows) + 0.9), dpi=DPI,
+                 layout='constrained')
+    FigureCanvasAgg(fig)
+    grid = fig.subplots(len(rows), ncols, sharex=True, squeeze=False)
+    bottom = {}  # column -> lowest used axes (gets the time label)
+    for r, row in enumerate(rows):
+        for c in range(ncols):
+            ax = grid[r, c]
+            if c >= counts[row]:
+                fig.delaxes(ax)
+                continue
+            bottom[c] = ax
+            ax.grid(True, alpha=0.35)
+            if row == 'position':
+                unit = d['units'][c]
+                ax.plot(t, d['q_d'][:, c], '--', color='tab:gray', linewidth=1.3, label='desired $q_d$')
+                ax.plot(t, d['q'][:, c], color='tab:blue', linewidth=1.1, label='actual $q$')
+                ax.set_title(d['joint_names'][c])
+                ax.set_ylabel(f'position [{unit}]')
+            elif row == 'error':
+                unit = d['units'][c]
+                ax.axhline(0.0, color='black', linewidth=0.6)
+                ax.plot(t, d['e'][:, c], color='tab:orange', linewidth=1.1, label='$e = q_d - q$')
+                ax.set_ylabel(f'error [{unit}]')
+            elif row == 'effort':
+                unit = d['tau_units'][c]
+                ax.plot(t, d['tau'][:, c], color='tab:green', linewidth=1.1, label=r'$\tau$ applied')
+                if d['effort_limit'] is not None and np.isfinite(d['effort_limit'][c]):
+                    _limit_lines(ax, d['effort_limit'][c], d['tau'][:, c])
+                if m != n:
+                    ax.set_title(d['tau_names'][c])
+                ax.set_ylabel(f'{"torque" if unit.replace(" ", "") == "Nm" else "joint force"} [{unit}]')
+            else:
+                if d['f_d'] is not None and np.any(np.isfinite(d['f_d'][:, c])):
+                    ax.plot(t, d['f_d'][:, c], '--', color='tab:gray', linewidth=1.3, label='reference $f_d$')
+                ax.plot(t, d['f'][:, c], color='tab:purple', linewidth=1.1, label='measured $f$')
+                ax.set_title(f'contact force {d["force_names"][c]}')
+                ax.set_ylabel('force [N]')
+            ax.legend(loc='best', fontsize='small')
+    for ax in bottom.values():
+        ax.set_xlabel('time [s]')
+        ax.xaxis.set_tick_params(labelbottom=True)
+    title = f'{d["scenario"]}: tracking'
+    if d['title']:
+        title += f' ({d["title"]})'
+    fig.suptitle(title, fontsize='large', fontweight='bold')
+    if path is not None:
+        path = Path(path)
+        if path.is_dir():
+            path = path / 'tracking.png'
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=DPI)
+    return fig
