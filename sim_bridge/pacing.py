@@ -1,0 +1,293 @@
+"""Pacing and command bookkeeping of the bridge node, free of rclpy (DESIGN §5).
+
+The node translates messages and calls into these small objects; everything that decides
+*when* physics runs and *which* torque is in force lives here so it can be tested without DDS.
+
+Time: simulation time is integer nanoseconds (as the World keeps it); wall time is integer
+nanoseconds of a monotonic clock (``time.monotonic_ns``).
+"""
+import math
+
+import numpy as np
+
+#: reasons a command is rejected, the keys of :attr:`CommandMapper.rejected`
+REJECT_REASONS = ('unknown_joint', 'missing_joint', 'duplicate_joint', 'length', 'non_finite')
+
+
+class RealtimePacer:
+    """How many control ticks are due at a wall time, for a real-time factor.
+
+    Anchored at (wall w0, tick k0): tick k may run once the wall clock has reached
+    ``w0 + (k + 1 - k0) * tick_ns / rtf`` (simulation never runs ahead of scaled wall time).
+    When the simulation falls more than ``max_lag_ns`` of wall time behind (a stall, a
+    debugger), the pacer re-anchors instead of bursting to catch up and counts an overrun.
+    """
+
+    def __init__(self, tick_ns, real_time_factor=1.0, max_lag_ns=100_000_000):
+        if int(tick_ns) <= 0:
+            raise ValueError(f'tick_ns: expected a positive integer, got {tick_ns}')
+        self.tick_ns = int(tick_ns)
+        self.max_lag_ns = int(max_lag_ns)
+        self.overruns = 0
+        self._rtf = 1.0
+        self._w0 = 0
+        self._k0 = 0
+        self.set_real_time_factor(real_time_factor)
+
+    @property
+    def real_time_factor(self):
+        return self._rtf
+
+    def set_real_time_factor(self, rtf, wall_ns=None, ticks_done=None):
+        """Change the factor; re-anchors at (wall_ns, ticks_done) when given so no tick is lost."""
+        rtf = float(rtf)
+        if not (math.isfinite(rtf) and rtf > 0.0):
+            raise ValueError(f'real_time_factor: expected a positive number, got {rtf}')
+        self._rtf = rtf
+        self._wall_per_tick = self.tick_ns / rtf
+        if wall_ns is not None:
+            self.anchor(wall_ns, ticks_done)
+
+    def anchor(self, wall_ns, ticks_done):
+        """Start (or restart after a pause or reset) pacing from tick `ticks_done` at `wall_ns`."""
+        self._w0 = int(wall_ns)
+        self._k0 = int(ticks_done)
+
+    def due(self, wall_ns, ticks_done):
+        """Number of ticks to run now so that ticks_done catches up with scaled wall time."""
+        target = self._k0 + int((wall_ns - self._w0) // self._wall_per_tick)
+        n = target - ticks_done
+        if n * self._wall_per_tick > self.max_lag_ns:
+            self.overruns += 1
+            self.anchor(wall_ns, ticks_done + 1)
+            return 1
+        return n if n > 0 else 0
+
+    def next_due_wall_ns(self, ticks_done):
+        """Wall time at which tick `ticks_done` becomes due."""
+        return self._w0 + int(math.ceil((ticks_done + 1 - self._k0) * self._wall_per_tick))
+
+
+class CommandWatchdog:
+    """A command is stale when none was accepted within `timeout_ns` of simulation time."""
+
+    def __init__(self, timeout_ns):
+        self.timeout_ns = int(timeout_ns)
+        self.last_ns = None
+
+    def clear(self):
+        """Forget the last command (start-up, reset): stale until the next one."""
+        self.last_ns = None
+
+    def fresh(self, t_ns):
+        """A valid command was accepted at simulation time `t_ns`."""
+        self.last_ns = t_ns
+
+    def stale(self, t_ns):
+        return self.last_ns is None or t_ns - self.last_ns > self.timeout_ns
+
+    def age_ns(self, t_ns):
+        """Simulation time since the last accepted command; None when there was none."""
+        return None if self.last_ns is None else t_ns - self.last_ns
+
+
+def stamp_ns(sec, nanosec):
+    """builtin_interfaces/Time fields -> integer nanoseconds."""
+    return sec * 1_000_000_000 + nanosec
+
+
+class LockstepGate:
+    """Lockstep handshake: the state of tick k is published at t_k; only the command stamped
+    t_k advances the simulation. Earlier stamps are late answers (a re-published state answered
+    twice, a second controller); later stamps cannot answer anything yet."""
+
+    MATCH, LATE, FUTURE = 0, 1, 2
+
+    def __init__(self):
+        self.expected_ns = 0
+        self.late = 0
+        self.future = 0
+
+    def expect(self, t_ns):
+        self.expected_ns = t_ns
+
+    def classify(self, sec, nanosec):
+        t = sec * 1_000_000_000 + nanosec
+        if t == self.expected_ns:
+            return self.MATCH
+        if t < self.expected_ns:
+            self.late += 1
+            return self.LATE
+        self.future += 1
+        return self.FUTURE
+
+
+class CommandMapper:
+    """Checks effort commands and maps them into the simulator's joint order.
+
+    ``map_named(names, efforts)`` for sensor_msgs/JointState (by name, any order), ``map_array(values)``
+    for std_msgs/Float64MultiArray (in `joints` order). Both fill the scratch vector ``tau`` and
+    return None, or leave the last accepted command untouched and return a reason starting with the
+    field name. Counts per reason are in ``rejected``. The name -> index permutation is cached for
+    the last name list seen, so a steady stream of commands allocates nothing but the view.
+    """
+
+    def __init__(self, joint_names):
+        self.joint_names = tuple(joint_names)
+        self.n = len(self.joint_names)
+        self._index = {name: i for i, name in enumerate(self.joint_names)}
+        self.tau = np.zeros(self.n)
+        self._scratch = np.zeros(self.n)
+        self._cached_names = None
+        self._cached_perm = None       # None for the identity permutation
+        self.rejected = dict.fromkeys(REJECT_REASONS, 0)
+        self.accepted = 0
+        self.last_reason = ''
+
+    @property
+    def rejected_total(self):
+        return sum(self.rejected.values())
+
+    def _reject(self, kind, reason):
+        self.rejected[kind] += 1
+        self.last_reason = reason
+        return reason
+
+    def _permutation(self, names):
+        n = self.n
+        if len(set(names)) != len(names):
+            dup = sorted({s for s in names if names.count(s) > 1})
+            return None, self._reject('duplicate_joint', f'name: duplicate joints {dup}')
+        unknown = [s for s in names if s not in self._index]
+        if unknown:
+            return None, self._reject('unknown_joint',
+                                      f'name: unknown joints {unknown} (expected {list(self.joint_names)})')
+        if len(names) != n:
+            missing = [s for s in self.joint_names if s not in names]
+            return None, self._reject('missing_joint', f'name: missing joints {missing}')
+        perm = [self._index[s] for s in names]
+        self._cached_names = list(names)
+        self._cached_perm = None if perm == list(range(n)) else np.array(perm, dtype=np.intp)
+        return True, None
+
+    def map_named(self, names, efforts):
+        """JointState command: `names` (list of str) with `efforts` (sequence of float)."""
+        if names != self._cached_names:
+            ok, reason = self._permutation(names)
+            if not ok:
+                return reason
+        if len(efforts) != self.n:
+            return self._reject('length', f'effort: expected {self.n} values (one per name), got {len(efforts)}')
+        return self._commit(efforts, self._cached_perm)
+
+    def map_array(self, values):
+        """Float64MultiArray command: `values` in `joints` order."""
+        if len(values) != self.n:
+            return self._reject('length', f'data: expected {self.n} values in joints order '
+                                          f'{list(self.joint_names)}, got {len(values)}')
+        return self._commit(values, None)
+
+    def _commit(self, values, perm):
+        s = self._scratch
+        if perm is None:
+            s[:] = values
+        else:
+            s[perm] = values
+        if not np.isfinite(s).all():
+            bad = [self.joint_names[i] for i in np.flatnonzero(~np.isfinite(s))]
+            return self._reject('non_finite', f'effort: non-finite values for joints {bad}')
+        self.tau[:] = s
+        self.accepted += 1
+        return None
+
+
+class SourceGuard:
+    """Refuses to mix commands from more than one publisher (DESIGN §5: one controller).
+
+    Evidence of mixing, checked per message in O(1):
+    - a command on a topic that the ROS graph shows with more than one publisher (the counts are
+      refreshed by the node: periodically and whenever a lockstep answer comes twice);
+    - commands on both command topics (JointState and Float64MultiArray) within `timeout_ns`.
+    While there is evidence the node holds the brakes; the conflict clears after `timeout_ns` of
+    simulation time without new evidence.
+    """
+
+    def __init__(self, timeout_ns, topics):
+        self.timeout_ns = int(timeout_ns)
+        self.topics = tuple(topics)
+        self.counts = [0] * len(self.topics)
+        self.conflicts = 0
+        self.reason = ''
+        self._evidence_ns = None
+        self.reset()
+
+    def reset(self):
+        """Forget message history (simulation time restarts); publisher counts are kept."""
+        self._last_t = [None] * len(self.topics)
+        self._evidence_ns = None
+
+    def set_count(self, topic, n):
+        """Number of publishers the graph shows on topic index `topic`."""
+        self.counts[topic] = int(n)
+
+    def in_conflict(self, t_ns):
+        if self._evidence_ns is None:
+            return False
+        if t_ns - self._evidence_ns > self.timeout_ns or t_ns < self._evidence_ns:
+            self._evidence_ns = None
+            return False
+        return True
+
+    def _evidence(self, t_ns, reason):
+        if self._evidence_ns is None:
+            self.conflicts += 1
+        self._evidence_ns = t_ns
+        self.reason = reason
+
+    def check(self, topic, t_ns):
+        """Record a command on topic index `topic` at simulation time `t_ns`; True when it may be
+        applied, False while mixing is seen."""
+        n = self.counts[topic]
+        if n > 1:
+            self._evidence(t_ns, f'{n} publishers on {self.topics[topic]}')
+        for other, t_other in enumerate(self._last_t):
+            if other != topic and t_other is not None and 0 <= t_ns - t_other <= self.timeout_ns:
+                self._evidence(t_ns, f'commands on both {self.topics[other]} and {self.topics[topic]}')
+        self._last_t[topic] = t_ns
+        return self._evidence_ns is None or not self.in_conflict(t_ns)
+
+
+class Throttle:
+    """At most one event per `period_ns` of wall time (for warnings); counts the suppressed ones."""
+
+    def __init__(self, period_ns):
+        self.period_ns = int(period_ns)
+        self._next = None
+        self.suppressed = 0
+
+    def ready(self, wall_ns):
+        if self._next is None or wall_ns >= self._next:
+            self._next = wall_ns + self.period_ns
+            return True
+        self.suppressed += 1
+        return False
+
+
+class RateMeter:
+    """Achieved real-time factor (simulation time / wall time) between two readings."""
+
+    def __init__(self):
+        self._wall = None
+        self._sim = None
+
+    def reset(self, wall_ns, sim_ns):
+        self._wall, self._sim = wall_ns, sim_ns
+
+    def read(self, wall_ns, sim_ns):
+        """Factor since the last read (or reset), None if no wall time passed; restarts the window."""
+        if self._wall is None or wall_ns <= self._wall or sim_ns < self._sim:
+            self.reset(wall_ns, sim_ns)
+            return None
+        rtf = (sim_ns - self._sim) / (wall_ns - self._wall)
+        self.reset(wall_ns, sim_ns)
+        return rtf
