@@ -63,6 +63,20 @@ class Spec:
                                    additional_constraints=self.bounds, read_only=self.read_only)
 
 
+def scenario_spec():
+    """The `scenario` parameter: a name that fills the defaults of everything else."""
+    return Spec('scenario', T.STRING, '',
+                'scenario name filling the defaults of the model, joints and surface '
+                '(robot_control.scenarios); empty = none',
+                ' | '.join(["''"] + sorted(scenarios.SCENARIOS)), True)
+
+
+def model_spec(default):
+    """The `model` parameter: closed-form model name or 'urdf'."""
+    return Spec('model', T.STRING, default, "closed-form model name or 'urdf'",
+                ' | '.join(sorted(CLOSED_FORM) + ['urdf']), True)
+
+
 def _scenario_defaults(name):
     """Defaults implied by scenario `name` ('' = none)."""
     if not name:
@@ -198,19 +212,14 @@ class ControllerParameters:
         self._model_cache = {}
         self.specs = {}
         values = {}
-        scenario = self._declare(Spec('scenario', T.STRING, '',
-                                      'scenario name filling the defaults of the model, joints and surface '
-                                      '(robot_control.scenarios); empty = none',
-                                      ' | '.join(["''"] + sorted(scenarios.SCENARIOS)), True))
+        scenario = self._declare(scenario_spec())
         values['scenario'] = scenario
         try:
             defaults = _scenario_defaults(scenario)
         except ValueError as exc:
             raise ParameterError('scenario', exc) from None
         self.q_nominal = defaults.get('q_nominal')
-        values['model'] = self._declare(Spec('model', T.STRING, defaults.get('model', 'polar_two_link'),
-                                             "closed-form model name or 'urdf'",
-                                             ' | '.join(sorted(CLOSED_FORM) + ['urdf']), True))
+        values['model'] = self._declare(model_spec(defaults.get('model', 'polar_two_link')))
         if 'joints' not in defaults and values['model'] in CLOSED_FORM:
             defaults['joints'] = CLOSED_FORM[values['model']].joint_names
         for spec in model_param_specs(values['model'], defaults.get('model_params')) + specs(defaults):
