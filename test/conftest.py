@@ -3,6 +3,12 @@ import os
 import sys
 
 import pytest
+from hypothesis import settings
+
+# Property tests: reproducible (derandomized, no example database) and no wall-clock deadline,
+# which a loaded 2-core CI machine would turn into flakes. Examples per test stay as each sets.
+settings.register_profile('robot_control', deadline=None, derandomize=True, database=None)
+settings.load_profile('robot_control')
 
 # Before anything imports rclpy: never let discovery leave this machine.
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
