@@ -58,10 +58,12 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.gains import ServoGains
-from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, independent_joint, saturate
+from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, independent_joint
+from robot_control.laws.saturation import clip_into
 from robot_control.laws.servo import limit_vector
 from robot_control.models.base import RobotModel
 from robot_control.trajectory import from_points, hold
+from robot_control.validation import finite, is_vector
 
 LAWS = ('computed_torque', 'independent_joint', 'force', 'hybrid')
 JOINT_LAWS = ('computed_torque', 'independent_joint')
@@ -251,6 +253,9 @@ class ControllerCore:
         self._tau_prev = np.zeros(n)
         self._has_prev = False
         self._sat = np.zeros(n, dtype=bool)
+        self._sat_any = False
+        self._n = n
+        self._plan_for = None               # the config the per-config constants below were made for
         self._traj = None
         self._pending = None
         self._goal = None
@@ -286,7 +291,10 @@ class ControllerCore:
     def _setup_buffers(self, cfg):
         """Reference/error buffers in the law's space (joints, force axis or task axes)."""
         dim = cfg.integral_dim
-        self._ref = (np.zeros(dim), np.zeros(dim), np.zeros(dim))
+        if cfg.law in JOINT_LAWS:   # the reference is the joint reference itself
+            self._ref = (self._q_d, self._qd_d, self._qdd_d)
+        else:
+            self._ref = (np.zeros(dim), np.zeros(dim), np.zeros(dim))
         self._E, self._Ed = np.zeros(dim), np.zeros(dim)
         self._ref_names = cfg.joints if cfg.law in JOINT_LAWS else (
             cfg.force_axes if cfg.law == 'force' else cfg.model.task_axes)
@@ -422,6 +430,23 @@ class ControllerCore:
             self._force_traj = self._ramp(t, (start, None, None), self._f_target)
 
     # -- the tick --------------------------------------------------------------------------------
+    def _plan(self, cfg):
+        """Per-config constants of the tick (made once per ControllerConfig, not per tick)."""
+        mask = cfg.force_mask
+        m = mask.shape[0]
+        self._fidx = np.flatnonzero(mask)                     # force axes among the task axes
+        self._force_axes = tuple(enumerate(self._fidx.tolist()))   # (j, i): force axis j is task axis i
+        self._has_force = self._fidx.size > 0
+        self._f_m, self._fdot_m = np.zeros(m), np.zeros(m)    # f, fdot on the force axes, 0 elsewhere
+        K_e = np.ones(m)
+        K_e[self._fidx] = cfg.k_e
+        K_e.flags.writeable = False
+        self._K_e = K_e
+        self._gains_T = cfg.gains if (~mask).any() else None
+        self._gains_N = cfg.force_gains if self._has_force else None
+        self._neg_limit = -cfg.effort_limit
+        self._plan_for = cfg
+
     def update(self, t, q, qd, f_meas=None):
         """Torque (n,) for the state (q, qd) at time t (s); f_meas (m,) measured task forces, N.
 
@@ -430,13 +455,19 @@ class ControllerCore:
         """
         cfg = self._cfg
         model = cfg.model
-        t = validation.scalar('t', t)
-        q = validation.vector('q', q, cfg.n)
-        qd = validation.vector('qd', qd, cfg.n)
-        if cfg.law in TASK_LAWS:
+        n = self._n
+        if not (type(t) is float and math.isfinite(t)):
+            t = validation.scalar('t', t)
+        if not (is_vector(q, n) and is_vector(qd, n) and finite(q) and finite(qd)):
+            q = validation.vector('q', q, n)
+            qd = validation.vector('qd', qd, n)
+        if cfg is not self._plan_for:
+            self._plan(cfg)
+        law = cfg.law
+        if law in TASK_LAWS:
             x, xd, f_axes, fdot_axes = self._task_state(cfg, q, qd, f_meas)
         else:
-            f_axes = None
+            x = xd = f_axes = fdot_axes = None
         dt = 0.0
         if not self.active or t < self._t:
             if self._t is not None:
@@ -454,20 +485,23 @@ class ControllerCore:
         if self._pending is not None and t >= self._pending.t0:
             self._traj, self._pending = self._pending, None
         self._traj.sample_into(t, self._q_d, self._qd_d, self._qdd_d)
-        if cfg.force_axes:
+        if self._has_force:
             self._force_traj.sample_into(t, self._f_d, self._fd_d, self._fdd_d)
 
-        if cfg.law in JOINT_LAWS:
-            evaluate = self._joint_law(cfg, q, qd)
-        elif cfg.law == 'force':
-            evaluate = self._force_law(cfg, q, f_axes, fdot_axes)
+        # the law's inputs of this tick, read by _evaluate()
+        self._tick = (q, qd, x, xd, f_axes, fdot_axes)
+        if law in JOINT_LAWS:
+            np.subtract(self._q_d, q, out=self._E)
+            np.subtract(self._qd_d, qd, out=self._Ed)
+        elif law == 'force':
+            self._force_errors(f_axes, fdot_axes)
         else:
-            evaluate = self._hybrid_law(cfg, q, qd, x, xd, f_axes, fdot_axes)
+            self._hybrid_reference(cfg, x, xd, f_axes, fdot_axes)
 
         int_E = None
         if cfg.integral:
             if self._reinit:
-                self._reinitialise(cfg, evaluate)
+                self._reinitialise(cfg, self._evaluate)
             elif dt > 0.0:
                 self._integral.update(self._E, dt, hold=self._hold_mask(cfg))
             int_E = self._integral.value
@@ -476,18 +510,19 @@ class ControllerCore:
         self._reinit = False
 
         try:
-            tau = evaluate(int_E)
+            tau = self._evaluate(int_E)
         except (ValueError, np.linalg.LinAlgError) as exc:
             tau = self._fallback(model, q, exc)
-        tau, sat = saturate(tau, cfg.effort_limit)
-        self._tau[:] = tau
-        self._sat[:] = sat
-        self._tau_prev[:] = tau
+        # laws.saturate without its argument checks: tau is finite (law or fallback), the limits
+        # were checked with the config
+        clip_into(tau, cfg.effort_limit, self._neg_limit, self._tau, self._sat)
+        self._tau_prev[:] = self._tau
         self._has_prev = True
         self.ticks += 1
-        if sat.any():
+        self._sat_any = sat_any = np.count_nonzero(self._sat) > 0
+        if sat_any:
             self.saturated_ticks += 1
-            self.saturation_counts += sat
+            self.saturation_counts += self._sat
         return self._tau
 
     def _fallback(self, model, q, exc):
@@ -499,70 +534,67 @@ class ControllerCore:
         return g
 
     def _task_state(self, cfg, q, qd, f_meas):
+        """(x, xd, f, fdot) of the measured state: task position and velocity, force-axis force and rate."""
         model = cfg.model
-        x = np.asarray(model.fk(q), dtype=float)
-        xd = np.asarray(model.J(q), dtype=float) @ qd
-        mask = cfg.force_mask
-        if not mask.any():
-            return x, xd, np.zeros(0), np.zeros(0)
+        x, J, _ = model._task(q, qd)   # cached: the law evaluates the same terms at the same (q, qd)
+        xd = J @ qd
+        if not self._has_force:
+            return x, xd, None, None
+        fidx = self._fidx
         if cfg.force_feedback == 'model':
             # the lecture's f = k_e (x - x_e), fdot = k_e xd: laws.spring_force(..., sign=0), inlined
             # because spring_force's argument checks cost more than the rest of the tick
-            f = cfg.k_e * (x[mask] - cfg.x_e)
-            fdot = cfg.k_e * xd[mask]
+            f = cfg.k_e * (x[fidx] - cfg.x_e)
         else:
             if f_meas is None:
                 raise ValueError("f_meas: required with force_feedback 'sensor'")
-            f = validation.vector('f_meas', f_meas, model.task_dim)[mask]
-            fdot = cfg.k_e * xd[mask]
-        return x, xd, f, fdot
+            f = validation.vector('f_meas', f_meas, model.task_dim)[fidx]
+        return x, xd, f, cfg.k_e * xd[fidx]
 
-    def _joint_law(self, cfg, q, qd):
-        np.subtract(self._q_d, q, out=self._E)
-        np.subtract(self._qd_d, qd, out=self._Ed)
-        ref = self._ref
-        ref[0][:], ref[1][:], ref[2][:] = self._q_d, self._qd_d, self._qdd_d
-        if cfg.law == 'computed_torque':
-            return lambda int_E: computed_torque(cfg.model, q, qd, self._q_d, self._qd_d, self._qdd_d,
-                                                 cfg.gains, int_E)
-        return lambda int_E: independent_joint(q, qd, self._q_d, self._qd_d, cfg.gains, int_E)
+    def _evaluate(self, int_E):
+        """The configured law at this tick's state and reference, with the error integral int_E."""
+        cfg = self._cfg
+        q, qd, x, xd, f, fdot = self._tick
+        law = cfg.law
+        if law == 'computed_torque':
+            return computed_torque(cfg.model, q, qd, self._q_d, self._qd_d, self._qdd_d, cfg.gains, int_E)
+        if law == 'independent_joint':
+            return independent_joint(q, qd, self._q_d, self._qd_d, cfg.gains, int_E)
+        if law == 'force':
+            return force_1dof(self._m_x, f, fdot, self._f_d, self._fd_d, self._fdd_d, float(cfg.k_e[0]),
+                              cfg.force_gains, int_E)
+        pos, vel, acc = self._ref
+        return hybrid(cfg.model, q, qd, pos, vel, acc, pos, vel, acc, self._f_m, self._fdot_m, cfg.force_mask,
+                      self._K_e, self._gains_T, self._gains_N, q_posture=self._q_d, k_posture=cfg.posture_gains,
+                      int_E=int_E)
 
-    def _force_law(self, cfg, q, f, fdot):
+    def _force_errors(self, f, fdot):
         np.subtract(self._f_d, f, out=self._E)
         np.subtract(self._fd_d, fdot, out=self._Ed)
         ref = self._ref
         ref[0][:], ref[1][:], ref[2][:] = self._f_d, self._fd_d, self._fdd_d
-        m_x = float(cfg.model.M(q)[0, 0])
-        k_e = float(cfg.k_e[0])
-        return lambda int_E: force_1dof(m_x, f, fdot, self._f_d, self._fd_d, self._fdd_d, k_e,
-                                        cfg.force_gains, int_E)
+        self._m_x = float(self._cfg.model.M(self._tick[0])[0, 0])
 
-    def _hybrid_law(self, cfg, q, qd, x, xd, f, fdot):
-        model = cfg.model
-        mask = cfg.force_mask
-        Jd = np.asarray(model.J(self._q_d), dtype=float)
+    def _hybrid_reference(self, cfg, x, xd, f, fdot):
+        """Task reference (motion axes: fk, J qd, J qdd + Jdot qd of the joint reference; force axes:
+        the force reference) and the task errors E, Ed."""
         pos, vel, acc = self._ref
-        pos[:] = model.fk(self._q_d)
-        np.dot(Jd, self._qd_d, out=vel)
-        np.dot(Jd, self._qdd_d, out=acc)
-        acc += model.Jdot_qd(self._q_d, self._qd_d)
-        f_m, fdot_m = np.zeros(model.task_dim), np.zeros(model.task_dim)
-        K_e = np.ones(model.task_dim)
-        if mask.any():
-            pos[mask], vel[mask], acc[mask] = self._f_d, self._fd_d, self._fdd_d
-            f_m[mask], fdot_m[mask], K_e[mask] = f, fdot, cfg.k_e
-        self._E[:] = np.where(mask, pos - f_m, pos - x)
-        self._Ed[:] = np.where(mask, vel - fdot_m, vel - xd)
-        gains_T = cfg.gains if (~mask).any() else None
-        gains_N = cfg.force_gains if mask.any() else None
-        q_posture = self._q_d
-        return lambda int_E: hybrid(model, q, qd, pos, vel, acc, pos, vel, acc, f_m, fdot_m, mask, K_e,
-                                    gains_T, gains_N, q_posture=q_posture, k_posture=cfg.posture_gains,
-                                    int_E=int_E)
+        x_d, xd_d, xdd_d = cfg.model._task_motion(self._q_d, self._qd_d, self._qdd_d)
+        pos[:], vel[:], acc[:] = x_d, xd_d, xdd_d
+        np.subtract(pos, x, out=self._E)
+        np.subtract(vel, xd, out=self._Ed)
+        if self._has_force:   # usually one axis: scalar writes beat fancy indexing here
+            f_d, fd_d, fdd_d = self._f_d.tolist(), self._fd_d.tolist(), self._fdd_d.tolist()
+            f, fdot = f.tolist(), fdot.tolist()
+            E, Ed, f_m, fdot_m = self._E, self._Ed, self._f_m, self._fdot_m
+            for j, i in self._force_axes:
+                pos[i], vel[i], acc[i] = f_d[j], fd_d[j], fdd_d[j]
+                f_m[i], fdot_m[i] = f[j], fdot[j]
+                E[i], Ed[i] = f_d[j] - f[j], fd_d[j] - fdot[j]
 
     def _hold_mask(self, cfg):
         """Anti-windup: which integral entries to freeze this tick (from the last tick's saturation)."""
-        if not self._sat.any():
+        if not self._sat_any:
             return None
         if cfg.law == 'hybrid':
             return np.ones(self._integral.n, dtype=bool)

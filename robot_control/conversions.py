@@ -14,6 +14,7 @@ Conventions
 - Wrench: the force components along the task axes named 'x', 'y', 'z' (the torque part is
   not used by the laws here). The force is the one the robot exerts on the environment.
 """
+import array
 import math
 
 import numpy as np
@@ -65,7 +66,8 @@ class JointStateReader:
 
     read(msg) -> (q, qd): views of internal (n,) buffers, overwritten by the next read (copy
     them to keep them). The name -> index map is cached while the message's name list does not
-    change, so a steady stream costs one list comparison and two numpy takes per message.
+    change, so a steady stream costs one list comparison and two copies per message (plain
+    copies when the message lists exactly the controlled joints in their order).
     """
 
     def __init__(self, joints):
@@ -77,6 +79,7 @@ class JointStateReader:
         self._qd = np.zeros(n)
         self._names = None
         self._index = None
+        self._in_order = False      # the cached names are exactly `joints`, in order
 
     def _index_for(self, names):
         if names == self._names:
@@ -91,18 +94,25 @@ class JointStateReader:
             raise ValueError(f'name: missing controlled joints {missing} (got {list(names)})')
         self._index = np.array([seen[j] for j in self.joints], dtype=np.intp)
         self._names = list(names)
+        self._in_order = self._names == list(self.joints)
         return self._index
 
     def read(self, msg):
-        names = msg.name
+        names, position, velocity = msg.name, msg.position, msg.velocity
         k = len(names)
-        if len(msg.position) != k:
-            raise ValueError(f'position: expected one entry per name ({k}), got {len(msg.position)}')
-        if len(msg.velocity) != k:
-            raise ValueError(f'velocity: expected one entry per name ({k}), got {len(msg.velocity)}')
+        if len(position) != k:
+            raise ValueError(f'position: expected one entry per name ({k}), got {len(position)}')
+        if len(velocity) != k:
+            raise ValueError(f'velocity: expected one entry per name ({k}), got {len(velocity)}')
         index = self._index_for(names)
-        np.take(np.asarray(msg.position, dtype=float), index, out=self._q)
-        np.take(np.asarray(msg.velocity, dtype=float), index, out=self._qd)
+        if self._in_order:
+            self._q[:] = position      # array.array (a received message): one buffer copy
+            self._qd[:] = velocity
+        else:
+            np.take(np.asarray(position, dtype=float), index, out=self._q)
+            np.take(np.asarray(velocity, dtype=float), index, out=self._qd)
+        if validation.finite(self._q) and validation.finite(self._qd):
+            return self._q, self._qd
         for field, values in (('position', self._q), ('velocity', self._qd)):
             if not np.isfinite(values).all():
                 bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
@@ -116,10 +126,15 @@ def joint_state(names, stamp_ns=0, position=(), velocity=(), effort=(), frame_id
     msg.header.frame_id = frame_id
     ns_to_stamp(stamp_ns, msg.header.stamp)
     msg.name = list(names)
-    msg.position = np.asarray(position, dtype=float).tolist()
-    msg.velocity = np.asarray(velocity, dtype=float).tolist()
-    msg.effort = np.asarray(effort, dtype=float).tolist()
+    msg.position = _float_array(position)
+    msg.velocity = _float_array(velocity)
+    msg.effort = _float_array(effort)
     return msg
+
+
+def _float_array(values):
+    """array.array('d') of `values` (what a float64[] message field holds): one copy, no list."""
+    return array.array('d', np.asarray(values, dtype=float).tobytes())
 
 
 def joint_state_arrays(msg):
@@ -140,7 +155,7 @@ class EffortCommand:
         """Set efforts (n,) (N m or N) and header.stamp; returns the message."""
         if len(tau) != self._n:
             raise ValueError(f'tau: expected length {self._n}, got {len(tau)}')
-        self.msg.effort = tau.tolist()
+        self.msg.effort = _float_array(tau)
         ns_to_stamp(stamp_ns, self.msg.header.stamp)
         return self.msg
 
@@ -148,7 +163,7 @@ class EffortCommand:
 def effort_array(tau, out=None):
     """std_msgs/Float64MultiArray of the efforts in `joints` order (forward effort controller)."""
     msg = Float64MultiArray() if out is None else out
-    msg.data = np.asarray(tau, dtype=float).tolist()
+    msg.data = _float_array(tau)
     return msg
 
 

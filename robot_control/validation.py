@@ -3,9 +3,38 @@ import math
 
 import numpy as np
 
+F64 = np.dtype(np.float64)
+
+
+def is_vector(value, n):
+    """True when `value` is already a float64 ndarray of shape (n,): the fast path's shape check
+    (finiteness is not checked here; see finite())."""
+    return type(value) is np.ndarray and value.shape == (n,) and value.dtype is F64
+
+
+def finite(a):
+    """True when every entry of the 1-D float array `a` is finite.
+
+    One Python sum of the entries (a NaN or inf makes it non-finite); only when that sum is not
+    finite (a NaN, an inf, or an overflow of finite entries) does numpy check entry by entry.
+    """
+    return math.isfinite(sum(a.tolist())) or bool(np.isfinite(a).all())
+
+
+def all_finite(*arrays):
+    """finite() of several 1-D float arrays at once. Python sums: a fast path that checks its
+    inputs with it before any numpy arithmetic never triggers numpy's invalid-value warnings."""
+    total = 0.0
+    for a in arrays:
+        total += sum(a.tolist())
+    return math.isfinite(total) or all(bool(np.isfinite(a).all()) for a in arrays)
+
 
 def vector(name, value, n=None):
     """Return `value` as a finite float64 1-D array of length `n` (any length if n is None)."""
+    if (type(value) is np.ndarray and value.dtype is F64 and value.ndim == 1
+            and (n is None or value.shape[0] == n) and finite(value)):
+        return value  # already what np.asarray would return: the same array
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:

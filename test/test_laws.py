@@ -323,3 +323,79 @@ def test_laws_return_a_finite_torque_or_raise_value_error(values):
         except ValueError:
             continue
         assert np.all(np.isfinite(tau))
+
+
+# -- the fast path (float64 arrays, ServoGains) against the checked path (anything else) --------
+def _as_arrays(args):
+    """Lists of numbers -> float64 arrays, lists of bools -> bool arrays (the fast path's input)."""
+    out = {}
+    for k, v in args.items():
+        if isinstance(v, list):
+            v = np.array(v, dtype=bool if isinstance(v[0], bool) else float)
+        out[k] = v
+    return out
+
+
+HYBRID_OK = {'q': [0.29, 0.05], 'qd': [0.1, -0.2], 'x_d': [0.3, 0.1], 'xd_d': [0.01, 0.0], 'xdd_d': [0.0, 0.2],
+             'f_d': [10.0, 0.0], 'fd_d': [1.0, 0.0], 'fdd_d': [0.5, 0.0], 'f': [8.0, 0.3], 'fdot': [20.0, 0.1],
+             'force_axes': [True, False], 'K_e': 1000.0, 'gains_T': G2, 'gains_N': G2,
+             'q_posture': [0.2, 0.1], 'int_E': [0.01, -0.02]}
+
+
+def test_fast_and_checked_paths_give_identical_torques():
+    """Arrays take the fast path, lists the checked one: the same numbers, bit for bit."""
+    g = ServoGains([36.0, 49.0], [12.0, 14.0], [5.0, 3.0])
+    ct = {'q': [0.3, 0.6], 'qd': [0.2, -0.4], 'q_d': [0.35, 0.5], 'qd_d': [0.1, 0.0], 'qdd_d': [1.0, -2.0],
+          'gains': g, 'int_E': [0.01, -0.03]}
+    for model in (POLAR, make_model('planar_two_link')):
+        np.testing.assert_array_equal(computed_torque(model, **_as_arrays(ct)), computed_torque(model, **ct))
+    ij = {k: v for k, v in ct.items() if k != 'qdd_d'}
+    np.testing.assert_array_equal(independent_joint(**_as_arrays(ij)), independent_joint(**ij))
+    fc = {'m': 1.5, 'f': [4.0], 'fdot': [30.0], 'f_d': [10.0], 'fd_d': [5.0], 'fdd_d': [-2.0], 'k_e': 1000.0,
+          'gains': ServoGains([36.0], [12.0], [10.0]), 'int_Ef': [0.3]}
+    np.testing.assert_array_equal(force_1dof(**_as_arrays(fc)), force_1dof(**fc))
+    for model in (CXY, POLAR, make_model('planar_two_link')):
+        np.testing.assert_array_equal(hybrid(model, **_as_arrays(HYBRID_OK)), hybrid(model, **HYBRID_OK))
+    tau, limit = [5.0, -30.0], [10.0, 20.0]
+    for got, want in zip(saturate(np.array(tau), np.array(limit)), saturate(tau, limit)):
+        np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize('bad', [np.nan, np.inf])
+@pytest.mark.parametrize('index', [0, 1])
+@pytest.mark.parametrize('name', ['q', 'qd', 'q_d', 'qd_d', 'qdd_d', 'int_E'])
+def test_computed_torque_fast_path_names_a_non_finite_array(name, index, bad):
+    args = {k: np.array(OK2) for k in ('q', 'qd', 'q_d', 'qd_d', 'qdd_d', 'int_E')}
+    args[name][index] = bad
+    with pytest.raises(ValueError, match=f'^{name}:'):
+        computed_torque(POLAR, gains=ServoGains.uniform(2, 36.0, 12.0, 0.0), **args)
+
+
+@pytest.mark.parametrize('bad', [np.nan, -np.inf])
+@pytest.mark.parametrize('index', [0, 1])   # the force axis and the motion axis
+@pytest.mark.parametrize('name', ['q', 'qd', 'x_d', 'xd_d', 'xdd_d', 'f_d', 'fd_d', 'fdd_d', 'f', 'fdot',
+                                  'q_posture', 'int_E'])
+def test_hybrid_fast_path_names_a_non_finite_array(name, index, bad):
+    """Entries the law ignores (x_d on a force axis, f on a motion axis) must be finite too."""
+    args = _as_arrays(HYBRID_OK)
+    args[name][index] = bad
+    with pytest.raises(ValueError, match=f'^{name}:'):
+        hybrid(CXY, **args)
+
+
+def test_integral_and_saturate_fast_path_reject_non_finite_arrays():
+    integ = Integral(2)
+    integ.update(np.array([1.0, 2.0]), 0.5)
+    with pytest.raises(ValueError, match='^E:'):
+        integ.update(np.array([1.0, np.nan]), 0.5)
+    np.testing.assert_array_equal(integ.value, [0.5, 1.0])
+    with pytest.raises(ValueError, match='^tau:'):
+        saturate(np.array([np.inf, 0.0]), np.array([1.0, 1.0]))
+
+
+def test_saturate_writes_into_given_buffers():
+    out = (np.zeros(3), np.zeros(3, dtype=bool))
+    tau, mask = saturate(np.array([5.0, -30.0, 2.0]), np.array([10.0, 20.0, np.inf]), out=out)
+    assert tau is out[0] and mask is out[1]
+    np.testing.assert_array_equal(tau, [5.0, -20.0, 2.0])
+    np.testing.assert_array_equal(mask, [False, True, False])

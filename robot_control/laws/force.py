@@ -5,10 +5,13 @@ Plant: m xdd + f = tau, f = k_e (x - x_e) the force the robot exerts on the envi
 v = (1/k_e)(fdd_d + kv Ef_dot + kp Ef), Ef = f_d - f; with fdd = k_e xdd the closed loop is
 Ef'' + kv Ef' + kp Ef = 0.
 """
+import math
+
 import numpy as np
 
 from robot_control import validation
-from robot_control.laws.servo import check_finite, per_entry, servo
+from robot_control.laws.servo import check_finite, per_entry, servo, servo_gains
+from robot_control.validation import all_finite, finite, is_vector
 
 
 def force_1dof(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef=None):
@@ -16,6 +19,22 @@ def force_1dof(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef=None):
 
     m in kg (> 0), forces in N, rates in N/s and N/s^2, k_e in N/m (> 0); gains kp, kv, ki each (1,).
     """
+    g = servo_gains(gains, 1)
+    if (g is not None and isinstance(m, float) and isinstance(k_e, float) and 0.0 < m < math.inf
+            and 0.0 < k_e < math.inf and is_vector(f, 1) and is_vector(fdot, 1) and is_vector(f_d, 1)
+            and is_vector(fd_d, 1) and is_vector(fdd_d, 1) and (int_Ef is None or is_vector(int_Ef, 1))
+            and all_finite(f, fdot, f_d, fd_d, fdd_d) and (int_Ef is None or finite(int_Ef))):
+        kp, kv, ki = g
+        v = fdd_d + kv * (fd_d - fdot) + kp * (f_d - f)
+        if int_Ef is not None:
+            v = v + ki * int_Ef
+        tau = m * (v / k_e) + f
+        if finite(tau):  # else an overflow: the checked path names it
+            return tau
+    return _force_1dof_checked(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef)
+
+
+def _force_1dof_checked(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef):
     m = validation.scalar('m', m, positive=True)
     k_e = validation.scalar('k_e', k_e, positive=True)
     f = validation.vector('f', f, 1)

@@ -11,19 +11,28 @@ It is computed in the equivalent joint-space form
     tau = M qdd* + C qd + g + J^T f_e,   qdd* = Jbar (F' - Jdot qd) + (I - Jbar J) qdd_0,
 and gives Xdd = F' in closed loop; qdd_0 acts in the null space only. With m = n, qdd* =
 J^-1 (F' - Jdot qd) and, for a Cartesian robot (J = I), tau = M_x F' + C_x + g_x + f_e exactly.
+Per tick (m < n): one kinematics pass for x, J, Jdot qd, M^-1 by Cholesky, an m x m solve and one
+RNEA, since M qdd* + C qd + g = rnea(q, qd, qdd_0) + J^T Lambda (F' - Jdot qd - J qdd_0).
 
 Force sign: f is the force the robot exerts on the environment, signed along each task axis, and
 f_e = f on the force axes, 0 on the motion axes (the robot's dynamics: M qdd + C qd + g + J^T f_e
 = tau). With f = K_e (x_N - x_e) and K_e > 0 this holds whichever side the robot presses from:
 pressing down on a table (-z) gives f_z < 0, so pushing with 10 N is f_d = -10 N on z.
 """
+import functools
+import math
+
 import numpy as np
 
 from robot_control import validation
+from robot_control.gains import ServoGains
 from robot_control.laws.servo import bool_mask, check_finite, gain_arrays, per_entry, vectors
+from robot_control.validation import F64, finite, is_vector
 
 #: largest accepted condition number of the task Jacobian J(q)
 MAX_JACOBIAN_COND = 1e9
+#: det(G) / trace(G)^m > this, G = J J^T (m x m), proves cond(J) < 1e6 without an SVD
+_GRAM_ACCEPT = 1e-12
 
 
 def _axis_gains(gains, axes, name):
@@ -52,6 +61,85 @@ def _axes_and_stiffness(force_axes, K_e, m):
 
 def _task_vectors(m, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot):
     return vectors(m, x_d=x_d, xd_d=xd_d, xdd_d=xdd_d, f_d=f_d, fd_d=fd_d, fdd_d=fdd_d, f=f, fdot=fdot)
+
+
+@functools.lru_cache(maxsize=32)
+def _task_setup(gains_T, gains_N, axes_key, K_e_key):
+    """_axis_lists() of immutable arguments (ServoGains or None, the mask's bytes, K_e as a number
+    or its float64 bytes), checked and computed once per combination (lru_cache)."""
+    axes = np.frombuffer(axes_key, dtype=bool).copy()
+    K_e = np.frombuffer(K_e_key, dtype=float) if isinstance(K_e_key, bytes) else K_e_key
+    axes, K_e = _axes_and_stiffness(axes, K_e, axes.shape[0])
+    gt, gn = _axis_gains(gains_T, ~axes, 'gains_T'), _axis_gains(gains_N, axes, 'gains_N')
+    return _axis_lists(axes, K_e, gt[0] + gn[0], gt[1] + gn[1], gt[2] + gn[2])
+
+
+def _axis_lists(axes, K_e, kp, kv, ki):
+    """(axes, K_e, kp, kv, ki), each a tuple of m Python values (the servo below runs in floats)."""
+    return tuple(tuple(a.tolist()) for a in (axes, K_e, kp, kv, ki))
+
+
+def _servo_floats(setup, x, xd, task, int_E):
+    """(F', f_e, total) over the m task axes as lists, in Python floats (m <= 6: cheaper than numpy
+    here); total adds every entry of the task vectors: not finite when one of them is NaN or inf.
+
+    Motion axes: F_i = xdd_d + kv Ed + kp E (+ ki int E), E = x_d - x, Ed = xd_d - xd; force axes:
+    F_i = (fdd_d + kv Ed + kp E (+ ki int E)) / K_e, E = f_d - f, Ed = fd_d - fdot; f_e = f on the
+    force axes, 0 elsewhere. The same operations, in the same order, as hybrid_servo's arrays.
+    """
+    axes, K_e, kp, kv, ki = setup
+    lists = [a.tolist() for a in task]
+    x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot = lists
+    x, xd = x.tolist(), xd.tolist()
+    ie = None if int_E is None else int_E.tolist()
+    F, f_e = [], []
+    for i, force in enumerate(axes):
+        if force:
+            u = fdd_d[i] + kv[i] * (fd_d[i] - fdot[i]) + kp[i] * (f_d[i] - f[i])
+            f_e.append(f[i])
+        else:
+            u = xdd_d[i] + kv[i] * (xd_d[i] - xd[i]) + kp[i] * (x_d[i] - x[i])
+            f_e.append(0.0)
+        if ie is not None:
+            u = u + ki[i] * ie[i]
+        F.append(u / K_e[i])
+    return F, f_e, sum(map(sum, lists))
+
+
+@functools.lru_cache(maxsize=32)
+def _posture_setup(k_posture, n):
+    """(kp0, -kv0), each (n,) read-only, of an immutable k_posture (a tuple of numbers or ServoGains)."""
+    kp0, kv0 = _posture_gains(k_posture, n)
+    kp0, neg_kv0 = np.array(kp0, dtype=float), -kv0   # own copies, shared by every cache hit
+    kp0.flags.writeable = neg_kv0.flags.writeable = False
+    return kp0, neg_kv0
+
+
+def _immutable_gains(gains):
+    return gains is None or type(gains) is ServoGains
+
+
+def _fast_setup(n, m, q, qd, task, force_axes, K_e, gains_T, gains_N, q_posture, k_posture, int_E):
+    """The cached setup (_axis_lists(), (kp0, -kv0)) when every vector is already a float64 array of
+    the right shape, q, qd and q_posture are finite (numpy arithmetic and the model use them; the
+    task vectors and int_E are checked in Python floats, see _hybrid_torque) and the gains are
+    immutable; None: the checked path."""
+    if not (is_vector(q, n) and is_vector(qd, n)
+            and type(force_axes) is np.ndarray and force_axes.dtype == np.bool_ and force_axes.shape == (m,)
+            and (q_posture is None or is_vector(q_posture, n)) and (int_E is None or is_vector(int_E, m))
+            and _immutable_gains(gains_T) and _immutable_gains(gains_N)
+            and (type(k_posture) is tuple or type(k_posture) is ServoGains)):
+        return None
+    for a in task:
+        if not is_vector(a, m):
+            return None
+    if not (finite(q) and finite(qd) and (q_posture is None or finite(q_posture))):
+        return None
+    K_e_key = K_e.tobytes() if type(K_e) is np.ndarray and K_e.dtype is F64 else K_e
+    try:
+        return _task_setup(gains_T, gains_N, force_axes.tobytes(), K_e_key), _posture_setup(k_posture, n)
+    except (TypeError, ValueError):   # unhashable or invalid: the checked path words the error
+        return None
 
 
 def _servo_F(x, xd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, axes, K_e, gains_T, gains_N, int_E):
@@ -89,6 +177,55 @@ def hybrid_servo(x, xd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes,
     return _servo_F(x, xd, *task, axes, K_e, gains_T, gains_N, int_E)
 
 
+def _check_jacobian(J):
+    """ValueError naming q when cond(J) > MAX_JACOBIAN_COND; the SVD runs only near a singularity."""
+    m = J.shape[0]
+    if 0 < m <= 3:
+        G = (J @ J.T).tolist()
+        if m == 1:
+            det = tr = G[0][0]
+        elif m == 2:
+            (a, b), (c, d) = G
+            det, tr = a * d - b * c, a + d
+        else:
+            (a, b, c), (d, e, f), (g, h, i) = G
+            det, tr = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g), a + e + i
+        bound = tr
+        for _ in range(m - 1):
+            bound *= tr          # tr^m (multiplication overflows to inf, ** would raise)
+        if tr > 0.0 and det > _GRAM_ACCEPT * bound:   # lambda_min / lambda_max of G >= det / tr^m
+            return
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not sv[-1] * MAX_JACOBIAN_COND > sv[0]:
+        raise ValueError(f'q: task Jacobian singular or nearly (singular values {sv.tolist()})')
+
+
+def _solve(A, b):
+    """A^-1 b for a small non-singular A (k, k), b (k,). k <= 3: Cramer's rule in Python floats
+    (cheaper than a LAPACK call at this size, and exact when A = I); larger k: np.linalg.solve."""
+    k = b.shape[0]
+    if k > 3:
+        return np.linalg.solve(A, b)
+    if k == 1:
+        return b / A[0]
+    if k == 2:
+        (a, c), (d, e) = A.tolist()
+        b0, b1 = b.tolist()
+        det = a * e - c * d
+        if det == 0.0:
+            raise np.linalg.LinAlgError('Singular matrix')
+        return np.array([(b0 * e - c * b1) / det, (a * b1 - d * b0) / det])
+    (a, c, d), (e, f, g), (h, i, j) = A.tolist()
+    b0, b1, b2 = b.tolist()
+    c0, c1, c2 = f * j - g * i, g * h - e * j, e * i - f * h      # cofactors of the first row
+    det = a * c0 + c * c1 + d * c2
+    if det == 0.0:
+        raise np.linalg.LinAlgError('Singular matrix')
+    return np.array([(c0 * b0 + (d * i - c * j) * b1 + (c * g - d * f) * b2) / det,
+                     (c1 * b0 + (a * j - d * h) * b1 + (d * e - a * g) * b2) / det,
+                     (c2 * b0 + (c * h - a * i) * b1 + (a * f - c * e) * b2) / det])
+
+
 def task_space_torque(M, h, J, Jdot_qd, F, f_e, qdd_0=None):
     """tau = M qdd* + h + J^T f_e, qdd* = Jbar (F - Jdot qd) + (I - Jbar J) qdd_0, Jbar = M^-1 J^T Lambda.
 
@@ -98,9 +235,7 @@ def task_space_torque(M, h, J, Jdot_qd, F, f_e, qdd_0=None):
     m, n = J.shape
     if m > n:
         raise ValueError(f'J: task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
-    sv = np.linalg.svd(J, compute_uv=False)
-    if not sv[-1] * MAX_JACOBIAN_COND > sv[0]:
-        raise ValueError(f'q: task Jacobian singular or nearly (singular values {sv.tolist()})')
+    _check_jacobian(J)
     a = F - Jdot_qd
     if m == n:
         qdd = np.linalg.solve(J, a)
@@ -113,15 +248,32 @@ def task_space_torque(M, h, J, Jdot_qd, F, f_e, qdd_0=None):
     return M @ qdd + h + J.T @ f_e
 
 
+def _model_task_torque(model, q, qd, J, Jdot_qd, F, f_e, qdd_0):
+    """task_space_torque on the model, checked arrays: M qdd* + C qd + g by RNEA, no M or h formed.
+
+    m = n: tau = rnea(q, qd, J^-1 (F - Jdot qd)) + J^T f_e. m < n: with Jbar = M^-1 J^T Lambda,
+    qdd* = qdd_0 + Jbar (F - Jdot qd - J qdd_0), so tau = rnea(q, qd, qdd_0) + J^T (y + f_e) with
+    y = Lambda (F - Jdot qd - J qdd_0), Lambda^-1 = J M^-1 J^T (m x m).
+    """
+    m, n = J.shape
+    if m > n:
+        raise ValueError(f'J: task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
+    _check_jacobian(J)
+    a = F - Jdot_qd
+    if m == n:
+        return model._inverse_dynamics(q, qd, _solve(J, a)) + J.T @ f_e
+    Minv_JT = model._Minv(q) @ J.T
+    y = _solve(J @ Minv_JT, a - J @ qdd_0)
+    return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (y + f_e)
+
+
 def operational_space(model, q, qd, F, f_e, qdd_0=None):
     """tau (n,) giving Xdd = F (m,) m/s^2 with contact force f_e (m,) N and null-space acceleration qdd_0 (n,)."""
     q, qd = vectors(model.n, q=q, qd=qd)
     F, f_e = vectors(model.task_dim, F=F, f_e=f_e)
-    if qdd_0 is not None:
-        qdd_0 = validation.vector('qdd_0', qdd_0, model.n)
-    h = model.C_qd(q, qd) + model.g(q)
-    tau = task_space_torque(model.M(q), h, model.J(q), model.Jdot_qd(q, qd), F, f_e, qdd_0)
-    return check_finite('tau', tau)
+    qdd_0 = np.zeros(model.n) if qdd_0 is None else validation.vector('qdd_0', qdd_0, model.n)
+    x, J, Jdot_qd = model._task(q, qd)
+    return check_finite('tau', _model_task_torque(model, q, qd, J, Jdot_qd, F, f_e, qdd_0))
 
 
 def _posture_gains(k_posture, n):
@@ -156,13 +308,46 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
     redundant arms (m < n); checked but unused when m = n. Units: m, N, s; f signed (module doc).
     """
     n, m = model.n, model.task_dim
+    task = (x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot)
+    setup = _fast_setup(n, m, q, qd, task, force_axes, K_e, gains_T, gains_N, q_posture, k_posture, int_E)
+    if setup is not None:
+        tau = _hybrid_torque(model, q, qd, task, setup, q_posture, int_E, checked=False)
+        if tau is not None:
+            return tau
+    # the checked path, in the order the arguments are documented
     q, qd = vectors(n, q=q, qd=qd)
-    task = _task_vectors(m, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot)
+    task = _task_vectors(m, *task)
     axes, K_e = _axes_and_stiffness(force_axes, K_e, m)
-    qdd_0 = posture_acceleration(q, qd, q_posture, k_posture)
-    J = model.J(q)
-    F = _servo_F(model.fk(q), J @ qd, *task, axes, K_e, gains_T, gains_N, int_E)
-    f_e = np.where(axes, task[6], 0.0)  # task[6] = f, the measured contact force
-    h = model.C_qd(q, qd) + model.g(q)
-    tau = task_space_torque(model.M(q), h, J, model.Jdot_qd(q, qd), F, f_e, qdd_0)
-    return check_finite('tau', tau)
+    kp0, kv0 = _posture_gains(k_posture, n)
+    if q_posture is not None:
+        q_posture = validation.vector('q_posture', q_posture, n)
+    gt, gn = _axis_gains(gains_T, ~axes, 'gains_T'), _axis_gains(gains_N, axes, 'gains_N')
+    if int_E is not None:
+        int_E = validation.vector('int_E', int_E, m)
+    setup = _axis_lists(axes, K_e, gt[0] + gn[0], gt[1] + gn[1], gt[2] + gn[2]), (kp0, -kv0)
+    return _hybrid_torque(model, q, qd, task, setup, q_posture, int_E, checked=True)
+
+
+def _hybrid_torque(model, q, qd, task, setup, q_posture, int_E, checked):
+    """hybrid() on shaped arrays with finite q, qd, q_posture. A NaN or inf in a task vector or int_E
+    makes F' (or the sum of the task entries) non-finite: unchecked, that returns None and the caller
+    checks every argument; checked (all finite), a non-finite result is an overflow: ValueError."""
+    axis_setup, (kp0, neg_kv0) = setup
+    x, J, Jdot_qd = model._task(q, qd)
+    F, f_e, total = _servo_floats(axis_setup, x, J @ qd, task, int_E)
+    F = np.array(F)
+    if not (math.isfinite(total) and finite(F)):
+        if not checked:
+            return None
+        check_finite('F', F)
+    qdd_0 = neg_kv0 * qd                       # posture_acceleration on checked arrays
+    if q_posture is not None:
+        qdd_0 = qdd_0 + kp0 * (q_posture - q)
+    if not finite(qdd_0):
+        if not checked:
+            return None
+        check_finite('qdd_0', qdd_0)
+    tau = _model_task_torque(model, q, qd, J, Jdot_qd, F, np.array(f_e), qdd_0)
+    if finite(tau):
+        return tau
+    return None if not checked else check_finite('tau', tau)

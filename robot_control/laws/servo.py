@@ -7,6 +7,8 @@ of Kp, Kv, Ki, each (n,), read from any object with attributes kp, kv, ki (robot
 import numpy as np
 
 from robot_control import validation
+from robot_control.gains import ServoGains
+from robot_control.validation import all_finite, finite, is_vector
 
 
 def bool_mask(name, value, n):
@@ -21,6 +23,8 @@ def bool_mask(name, value, n):
 
 def limit_vector(name, value, n):
     """A per-entry positive bound, (n,) array; a scalar is broadcast, +inf means unbounded."""
+    if is_vector(value, n) and (value > 0.0).all():   # NaN fails the comparison
+        return value
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -56,6 +60,13 @@ def vectors(n, **named):
     return arrays
 
 
+def servo_gains(gains, n):
+    """(kp, kv, ki) of a ServoGains of n entries (checked when it was made), else None: the fast path."""
+    if type(gains) is ServoGains and gains.kp.shape[0] == n:
+        return gains.kp, gains.kv, gains.ki
+    return None
+
+
 def gain_arrays(gains, n, name='gains'):
     """(kp, kv, ki) from `gains`, each a finite non-negative (n,) array; a missing ki is zeros."""
     kp, kv = getattr(gains, 'kp', None), getattr(gains, 'kv', None)
@@ -87,8 +98,12 @@ class Integral:
     def __init__(self, n, limit=np.inf):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
             raise ValueError(f'n: expected a positive integer, got {n!r}')
-        self._limit = limit_vector('limit', limit, int(n))
+        self._limit = limit_vector('limit', limit, int(n)).copy()
+        self._neg_limit = -self._limit
         self._value = np.zeros(int(n))
+        self._new = np.zeros(int(n))        # scratch of update()
+        self._view = self._value.view()     # what `value` hands out: read-only
+        self._view.flags.writeable = False
 
     @property
     def n(self):
@@ -103,9 +118,7 @@ class Integral:
     @property
     def value(self):
         """Current int E dt, (n,), units of E times s (read-only view)."""
-        view = self._value.view()
-        view.flags.writeable = False
-        return view
+        return self._view
 
     def reset(self):
         """Set the integral to zero."""
@@ -118,6 +131,23 @@ class Integral:
 
     def update(self, E, dt, hold=None):
         """value += E dt on entries not held, clamp to +-limit; E (n,), dt in s (>= 0). Returns value."""
+        n = self._value.shape[0]
+        # dt <= 1 s: E dt cannot overflow; anything else (and any failure) takes the checked path
+        if (is_vector(E, n) and finite(E) and isinstance(dt, float) and 0.0 <= dt <= 1.0
+                and (hold is None or (type(hold) is np.ndarray and hold.dtype == np.bool_ and hold.shape == (n,)))):
+            new = self._new
+            np.multiply(E, dt, out=new)
+            if hold is not None:
+                np.copyto(new, 0.0, where=hold)
+            new += self._value
+            np.minimum(new, self._limit, out=new)
+            np.maximum(new, self._neg_limit, out=new)
+            if finite(new):
+                self._value[:] = new
+                return self.value
+        return self._update_checked(E, dt, hold)
+
+    def _update_checked(self, E, dt, hold):
         E = validation.vector('E', E, self.n)
         dt = validation.scalar('dt', dt, nonnegative=True)
         held = np.zeros(self.n, bool) if hold is None else bool_mask('hold', hold, self.n)
@@ -130,6 +160,21 @@ class Integral:
 
 def servo(qdd_d, E, Ed, gains, int_E=None):
     """v = qdd_d + Kv Ed + Kp E + Ki int_E, all (n,); Kp in 1/s^2, Kv in 1/s, Ki in 1/s^3."""
+    n = qdd_d.shape[0] if type(qdd_d) is np.ndarray and qdd_d.ndim == 1 else -1
+    g = servo_gains(gains, n)
+    if (g is not None and is_vector(qdd_d, n) and is_vector(E, n) and is_vector(Ed, n)
+            and (int_E is None or is_vector(int_E, n))
+            and all_finite(qdd_d, E, Ed) and (int_E is None or finite(int_E))):
+        kp, kv, ki = g
+        v = qdd_d + kv * Ed + kp * E
+        if int_E is not None:
+            v = v + ki * int_E
+        if finite(v):  # else an overflow: the checked path names it
+            return v
+    return _servo_checked(qdd_d, E, Ed, gains, int_E)
+
+
+def _servo_checked(qdd_d, E, Ed, gains, int_E):
     qdd_d = validation.vector('qdd_d', qdd_d)
     n = qdd_d.shape[0]
     E, Ed = vectors(n, E=E, Ed=Ed)

@@ -3,6 +3,11 @@
 Units: SI (rad, m, kg, N, N m, s). Shapes: q, qd, tau are (n,); M and C are (n, n).
 Task space (Cartesian laws): x = fk(q) is (m,), J(q) is (m, n), Jdot_qd(q, qd) = Jdot qd is (m,).
 A model is immutable: what the robot is. Scratch memory, where needed, is private to the model.
+
+The laws' fast path (package-internal, underscore methods): the laws check their arguments once
+and then call _inverse_dynamics, _task, _task_motion and _Minv with finite float64 (n,) arrays,
+which do no argument checks of their own. Defaults below derive them from the public methods;
+models override them where one evaluation can serve several terms (UrdfModel: one Pinocchio pass).
 """
 from abc import ABC, abstractmethod
 
@@ -71,6 +76,24 @@ class RobotModel(ABC):
     def Jdot_qd(self, q, qd):
         """Task acceleration bias Jdot(q, qd) qd, (m,)."""
         raise NotImplementedError(f'{type(self).__name__} has no task space')
+
+    # -- the laws' fast path: arguments already checked (finite float64 (n,) arrays) -----------
+    def _inverse_dynamics(self, q, qd, qdd):
+        """tau = M qdd + C qd + g, (n,), a new array."""
+        return self.inverse_dynamics(q, qd, qdd)
+
+    def _task(self, q, qd):
+        """(x, J, Jdot_qd) at (q, qd): (m,), (m, n), (m,). Read them only: they may be shared."""
+        return self.fk(q), self.J(q), self.Jdot_qd(q, qd)
+
+    def _task_motion(self, q, qd, qdd):
+        """(x, xd, xdd) = (fk(q), J qd, J qdd + Jdot qd), each (m,). Read them only."""
+        J = self.J(q)
+        return self.fk(q), J @ qd, J @ qdd + self.Jdot_qd(q, qd)
+
+    def _Minv(self, q):
+        """M(q)^-1, (n, n). Read it only."""
+        return np.linalg.inv(self.M(q))
 
     # -- checks ------------------------------------------------------------------------------
     def check_q(self, q, name='q'):

@@ -18,7 +18,21 @@ def _param(name, value):
     return validation.scalar(name, value, positive=True)
 
 
-class MassSpringCubic(RobotModel):
+def _read_only(a):
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+class _ClosedForm(RobotModel):
+    """Closed forms evaluate tau = M qdd + C qd + g in Python floats (_inverse_dynamics)."""
+
+    def inverse_dynamics(self, q, qd, qdd):
+        """tau = M(q) qdd + C(q, qd) qd + g(q), (n,)."""
+        return self._inverse_dynamics(*(np.asarray(a, dtype=float) for a in (q, qd, qdd)))
+
+
+class MassSpringCubic(_ClosedForm):
     """m xdd + b xd + k x^3 = u (section 2.2): b xd is reported as C qd, k x^3 as g(q).
 
     The partitioned law alpha = m, beta = b xd + k x^3 is then computed torque on this model.
@@ -42,6 +56,10 @@ class MassSpringCubic(RobotModel):
     def g(self, q):
         return np.array([self.k * q[0] ** 3])
 
+    def _inverse_dynamics(self, q, qd, qdd):
+        (x,), (xd,), (a,) = q.tolist(), qd.tolist(), qdd.tolist()
+        return np.array([self.m * a + self.b * xd + self.k * (x * x * x)])  # floats: * overflows to inf, ** raises
+
     def fk(self, q):
         return np.array([q[0]])
 
@@ -52,7 +70,7 @@ class MassSpringCubic(RobotModel):
         return np.zeros(1)
 
 
-class SingleLink(RobotModel):
+class SingleLink(_ClosedForm):
     """m l^2 thdd + m g l cos(th) = tau: point mass m at the end of a link of length l.
 
     th is measured from the horizontal in a vertical plane.
@@ -75,6 +93,10 @@ class SingleLink(RobotModel):
     def g(self, q):
         return np.array([self.m * self.gravity * self.l * math.cos(q[0])])
 
+    def _inverse_dynamics(self, q, qd, qdd):
+        (th,), (a,) = q.tolist(), qdd.tolist()
+        return np.array([self.m * (self.l * self.l) * a + self.m * self.gravity * self.l * math.cos(th)])
+
     def fk(self, q):
         return self.l * np.array([math.cos(q[0]), math.sin(q[0])])
 
@@ -85,7 +107,7 @@ class SingleLink(RobotModel):
         return -self.l * qd[0] ** 2 * np.array([math.cos(q[0]), math.sin(q[0])])
 
 
-class PolarTwoLink(RobotModel):
+class PolarTwoLink(_ClosedForm):
     """Two-link polar robot, q = [th1, r], point mass m at radius r (the lecture's example).
 
     M = diag(m r^2, m), C qd = [2 m r rd th1d, -m r th1d^2], g = [m g r cos th1, m g sin th1].
@@ -114,6 +136,13 @@ class PolarTwoLink(RobotModel):
         mg = self.m * self.gravity
         return np.array([mg * q[1] * math.cos(q[0]), mg * math.sin(q[0])])
 
+    def _inverse_dynamics(self, q, qd, qdd):
+        (th, r), (thd, rd), (a0, a1) = q.tolist(), qd.tolist(), qdd.tolist()
+        m = self.m
+        mg = m * self.gravity
+        return np.array([m * r * r * a0 + 2.0 * m * r * rd * thd + mg * r * math.cos(th),
+                         m * a1 - m * r * (thd * thd) + mg * math.sin(th)])
+
     def fk(self, q):
         return q[1] * np.array([math.cos(q[0]), math.sin(q[0])])
 
@@ -127,7 +156,7 @@ class PolarTwoLink(RobotModel):
         return np.array([-2.0 * rd * t * s - r * t * t * c, 2.0 * rd * t * c - r * t * t * s])
 
 
-class PlanarTwoLink(RobotModel):
+class PlanarTwoLink(_ClosedForm):
     """Two-link planar arm in a vertical plane, point masses m1, m2 at the link ends.
 
     th1 from the horizontal, th2 relative to link 1. M and g are the lecture's. C qd is
@@ -164,6 +193,17 @@ class PlanarTwoLink(RobotModel):
         g2 = self.m2 * self.gravity * self.l2 * c12
         return np.array([(self.m1 + self.m2) * self.gravity * self.l1 * c1 + g2, g2])
 
+    def _inverse_dynamics(self, q, qd, qdd):
+        (t1, t2), (w1, w2), (a1, a2) = q.tolist(), qd.tolist(), qdd.tolist()
+        m1, m2, l1, l2, g0 = self.m1, self.m2, self.l1, self.l2, self.gravity
+        c2 = math.cos(t2)
+        m12 = m2 * l2 * l2 + m2 * l1 * l2 * c2
+        m11 = (m1 + m2) * l1 * l1 + m2 * l2 * l2 + 2.0 * m2 * l1 * l2 * c2
+        h = m2 * l1 * l2 * math.sin(t2)
+        g2 = m2 * g0 * l2 * math.cos(t1 + t2)
+        return np.array([m11 * a1 + m12 * a2 - h * (2.0 * w1 * w2 + w2 * w2) + (m1 + m2) * g0 * l1 * math.cos(t1) + g2,
+                         m12 * a1 + m2 * l2 * l2 * a2 + h * (w1 * w1) + g2])
+
     def fk(self, q):
         a, b = q[0], q[0] + q[1]
         return np.array([self.l1 * math.cos(a) + self.l2 * math.cos(b),
@@ -182,13 +222,18 @@ class PlanarTwoLink(RobotModel):
                          -self.l1 * math.sin(a) * w1 ** 2 - self.l2 * math.sin(b) * w12 ** 2])
 
 
-class _Cartesian(RobotModel):
+class _Cartesian(_ClosedForm):
     """Prismatic gantry: diagonal constant M, gravity on one axis, X = q and J = I."""
 
     def __init__(self, axis_masses, gravity_axis, gravity):
         self._M = np.diag(axis_masses)
         self._g = np.zeros(len(axis_masses))
         self._g[gravity_axis] = axis_masses[gravity_axis] * gravity
+        n = len(axis_masses)
+        self._mass = _read_only(axis_masses)              # the diagonal of M
+        self._Minv_ro = _read_only(np.diag(1.0 / self._mass))
+        self._eye = _read_only(np.eye(n))
+        self._zeros = _read_only(np.zeros(n))
 
     def M(self, q):
         return self._M.copy()
@@ -210,6 +255,15 @@ class _Cartesian(RobotModel):
 
     def Jdot_qd(self, q, qd):
         return np.zeros(self.n)
+
+    def _inverse_dynamics(self, q, qd, qdd):
+        return self._mass * qdd + self._g   # M diagonal, C qd = 0
+
+    def _task(self, q, qd):
+        return q.copy(), self._eye, self._zeros
+
+    def _Minv(self, q):
+        return self._Minv_ro
 
 
 class Force1Dof(_Cartesian):

@@ -17,6 +17,9 @@ import pinocchio as pin
 from robot_control import validation
 from robot_control.models.base import RobotModel
 
+#: world axes at the tip point, the frame of J and Jdot qd
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
 #: directory of the shipped URDFs (robot_control/urdf)
 URDF_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'urdf')
 
@@ -137,6 +140,13 @@ class UrdfModel(RobotModel):
         self._v = np.zeros(model.nv)
         self._a = np.zeros(model.nv)
         self._zero = np.zeros(model.nv)
+        n = len(ids)
+        # joints given in Pinocchio's order: vectors go to Pinocchio as they are, no reordering
+        self._in_order = (model.nq == n and model.nv == n and np.array_equal(self._iq, np.arange(n))
+                          and np.array_equal(self._iv, np.arange(n)))
+        self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # symmetrizes CRBA's upper triangle
+        self._task_key = None                # (q bytes, qd bytes) of the cached _task() result
+        self._task_out = None
         self._effort = self._limit(model.effortLimit[self._iv])
         self._lower = model.lowerPositionLimit[self._iq].copy()
         self._upper = model.upperPositionLimit[self._iq].copy()
@@ -200,16 +210,31 @@ class UrdfModel(RobotModel):
 
     # -- helpers -----------------------------------------------------------------------------
     def _set_q(self, q):
-        self._q[self._iq] = validation.vector('q', q, self.n)
-        return self._q
+        return self._pin_q(validation.vector('q', q, self.n))
 
     def _set_v(self, qd, name='qd'):
-        self._v[self._iv] = validation.vector(name, qd, self.n)
-        return self._v
+        return self._pin_v(validation.vector(name, qd, self.n))
 
     def _set_a(self, qdd, name='qdd'):
-        self._a[self._iv] = validation.vector(name, qdd, self.n)
-        return self._a
+        return self._pin_v(validation.vector(name, qdd, self.n), self._a)
+
+    # checked arrays (n,) -> Pinocchio's configuration / velocity vectors
+    def _pin_q(self, q):
+        if self._in_order:
+            return q
+        self._q[self._iq] = q
+        return self._q
+
+    def _pin_v(self, qd, out=None):
+        if self._in_order:
+            return qd
+        out = self._v if out is None else out
+        out[self._iv] = qd
+        return out
+
+    def _joint_order(self, a):
+        """A (nv,) Pinocchio vector (a new array) in joint order."""
+        return a if self._in_order else a[self._iv]
 
     def _require_tip(self):
         if self.frame_id is None:
@@ -218,9 +243,9 @@ class UrdfModel(RobotModel):
     # -- joint space -------------------------------------------------------------------------
     def M(self, q):
         """Mass matrix (CRBA, symmetrized from its upper triangle), (n, n)."""
-        m = np.triu(pin.crba(self.model, self._data, self._set_q(q)))
-        m = m + np.triu(m, 1).T
-        return m[self._ix]
+        m = pin.crba(self.model, self._data, self._set_q(q))   # a new array; upper triangle valid
+        np.copyto(m, m.T, where=self._lower_mask)
+        return m if self._in_order else m[self._ix]
 
     def C(self, q, qd):
         """Coriolis matrix (Pinocchio's, with Mdot - 2C skew), (n, n)."""
@@ -238,8 +263,7 @@ class UrdfModel(RobotModel):
 
     def inverse_dynamics(self, q, qd, qdd):
         """tau = M qdd + C qd + g by RNEA, (n,)."""
-        tau = pin.rnea(self.model, self._data, self._set_q(q), self._set_v(qd), self._set_a(qdd))
-        return tau[self._iv].copy()
+        return self._joint_order(pin.rnea(self.model, self._data, self._set_q(q), self._set_v(qd), self._set_a(qdd)))
 
     def forward_dynamics(self, q, qd, tau):
         """qdd = M^-1 (tau - C qd - g) by ABA, (n,)."""
@@ -267,6 +291,50 @@ class UrdfModel(RobotModel):
         acc = pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id,
                                                 pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
         return acc.linear.copy()
+
+    # -- the laws' fast path (RobotModel): arguments already checked ------------------------------
+    def _inverse_dynamics(self, q, qd, qdd):
+        """RNEA, one Pinocchio call; a new (n,) array."""
+        return self._joint_order(pin.rnea(self.model, self._data, self._pin_q(q), self._pin_v(qd),
+                                          self._pin_v(qdd, self._a)))
+
+    def _task(self, q, qd):
+        """(x, J, Jdot_qd) from one kinematics pass, cached for the last (q, qd) (read-only arrays)."""
+        key = (q.tobytes(), qd.tobytes())
+        if key == self._task_key:
+            return self._task_out
+        self._require_tip()
+        model, data, fid = self.model, self._data, self.frame_id
+        pq = self._pin_q(q)
+        pin.forwardKinematics(model, data, pq, self._pin_v(qd), self._zero)   # qdd = 0: the bias Jdot qd
+        x = pin.updateFramePlacement(model, data, fid).translation.copy()
+        jdot_qd = pin.getFrameClassicalAcceleration(model, data, fid, LWA).linear.copy()
+        pin.computeJointJacobians(model, data)                                # placements computed above
+        jac = pin.getFrameJacobian(model, data, fid, LWA).reshape(6, model.nv)[:3]
+        jac = jac if self._in_order else jac[:, self._iv]
+        for a in (x, jac, jdot_qd):
+            a.flags.writeable = False
+        self._task_out = (x, jac, jdot_qd)
+        self._task_key = key
+        return self._task_out
+
+    def _task_motion(self, q, qd, qdd):
+        """(x, J qd, J qdd + Jdot qd) of the tip from one second-order kinematics pass."""
+        self._require_tip()
+        model, data, fid = self.model, self._data, self.frame_id
+        pin.forwardKinematics(model, data, self._pin_q(q), self._pin_v(qd), self._pin_v(qdd, self._a))
+        x = pin.updateFramePlacement(model, data, fid).translation.copy()
+        xd = pin.getFrameVelocity(model, data, fid, LWA).linear.copy()
+        xdd = pin.getFrameClassicalAcceleration(model, data, fid, LWA).linear.copy()
+        return x, xd, xdd
+
+    def _Minv(self, q):
+        """M^-1 by CRBA and Pinocchio's sparse Cholesky, (n, n)."""
+        model, data = self.model, self._data
+        pin.crba(model, data, self._pin_q(q))
+        pin.cholesky.decompose(model, data)
+        minv = pin.cholesky.computeMinv(model, data)
+        return minv if self._in_order else minv[self._ix]
 
     def __repr__(self):
         return f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r})'
