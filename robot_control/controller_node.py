@@ -55,13 +55,13 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_control import conversions
+from robot_control import conversions, spin
 from robot_control.controller import ControllerCore
 from robot_control.params import ControllerParameters, ParameterError
 from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_QOS
@@ -144,7 +144,8 @@ class ControllerNode(Node):
         self.create_subscription(JointState, 'joint_states', self._on_joint_states, CONTROL_QOS)
         self.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory, REFERENCE_QOS)
         self.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference, REFERENCE_QOS)
-        self.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor, CONTROL_QOS)
+        self._ft_sub = None
+        self._set_ft_subscription(cfg)
 
         self._watchdog = None
         self._diag_timer = None
@@ -185,7 +186,8 @@ class ControllerNode(Node):
             self._reject('joint_states', exc)
             return
         now_ns = self.get_clock().now().nanoseconds
-        stamp_ns = conversions.stamp_to_ns(msg.header.stamp) or now_ns
+        msg_stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
+        stamp_ns = msg_stamp_ns or now_ns
         if self._epoch_ns is None:
             self._epoch_ns = stamp_ns
         self._last_state_ns = now_ns
@@ -198,7 +200,7 @@ class ControllerNode(Node):
         except ValueError as exc:  # defensive: the core falls back to gravity hold before this
             self._reject('joint_states', f'controller: {exc}')
             return
-        self._cmd_pub.publish(self._command.fill(tau, stamp_ns))
+        self._cmd_pub.publish(self._command.fill(tau, msg_stamp_ns))   # the lockstep handshake: t_k, even 0
         if self._array_pub is not None:
             self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
         self.commands_sent += 1
@@ -349,6 +351,7 @@ class ControllerNode(Node):
         old = self._params.current.values
         self._params.commit(snapshot)
         self._core.configure(snapshot.config)
+        self._set_ft_subscription(snapshot.config)
         changed = {p.name for p in parameters}
         values = snapshot.values
         self._apply_references(values, changed=changed, old=old)
@@ -367,6 +370,19 @@ class ControllerNode(Node):
         if k and (initial or 'f_d' in changed or values['force_axes'] != old['force_axes']):
             self._core.set_force_reference(values['f_d'] or np.zeros(k))
 
+    def _set_ft_subscription(self, cfg):
+        """Subscribe ft_sensor/wrench only while the law reads the measured force: each message wakes
+        the executor, at the bridge's control rate."""
+        needed = bool(cfg.force_axes) and cfg.law in ('force', 'hybrid') and cfg.force_feedback == 'sensor'
+        if needed and self._ft_sub is None:
+            self._f_meas[:] = 0.0
+            self._wrench_seen = False
+            self._ft_sub = self.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor,
+                                                    CONTROL_QOS)
+        elif not needed and self._ft_sub is not None:
+            self.destroy_subscription(self._ft_sub)
+            self._ft_sub = None
+
     def _set_array_publisher(self, enabled):
         if enabled and self._array_pub is None:
             self._array_pub = self.create_publisher(Float64MultiArray, 'effort_controller/commands', CONTROL_QOS)
@@ -375,20 +391,31 @@ class ControllerNode(Node):
             self._array_pub = None
 
 
+def _parse_args(argv):
+    import argparse
+    parser = argparse.ArgumentParser(prog='controller_node', description='robot_control controller node.',
+                                     epilog='ROS arguments follow --ros-args, e.g. --ros-args --params-file '
+                                            'config/polar_two_link.yaml')
+    parser.add_argument('--executor', choices=spin.EXECUTORS, default='events',
+                        help='rclpy executor: events (EventsExecutor, default) or single (SingleThreadedExecutor)')
+    return parser.parse_args(argv)
+
+
 def main(args=None):
     """Entry point: spin the controller until Ctrl-C / SIGTERM (exit 0); 1 on invalid parameters.
 
-    rclpy.init installs handlers for SIGINT and SIGTERM that shut the context down; the executor
-    is created before the node so that a signal arriving during start-up also ends cleanly.
+    SIGINT and SIGTERM set a stop flag checked between spin_once calls (robot_control.spin).
     """
-    rclpy.init(args=args)
-    executor = SingleThreadedExecutor()
+    argv = sys.argv if args is None else args
+    opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
+    stop = spin.init_with_stop_on_signals(argv)
+    executor = spin.make_executor(opts.executor)
     node = None
     code = 0
     try:
         node = ControllerNode()
         executor.add_node(node)
-        executor.spin()
+        spin.spin(executor, stop=stop)
     except ParameterError as exc:
         rclpy.logging.get_logger('controller').fatal(f'invalid parameter {exc}')
         code = 1

@@ -66,11 +66,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from robot_control import conversions, scenarios
+from robot_control import conversions, scenarios, spin
+from robot_control.spin import make_executor
 from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS
 from sim_bridge import bridge_params
-from sim_bridge.pacing import (CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
-                               SourceGuard, Throttle)
+from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
+                               RealtimePacer, SourceGuard, Throttle, stamp_ns)
 
 NS = 1_000_000_000
 #: /clock: reliable (also serves rclpy's and rclcpp's best-effort clock subscriptions), newest only
@@ -168,6 +169,7 @@ class SimBridge(Node):
         self._pacer = RealtimePacer(cfg.control_period_ns, cfg.real_time_factor)
         self._rate = RateMeter()
         self._achieved_rtf = None
+        self._deadline = DeadlineMeter()
 
         # -- interfaces
         self._pub_clock = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
@@ -300,14 +302,18 @@ class SimBridge(Node):
         stamp = self._stamp
         stamp.sec = sec
         stamp.nanosec = nsec
-        f, m = w.contact_wrench()
-        force, torque = self._force, self._torque
-        force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
-        torque.x, torque.y, torque.z = float(m[0]), float(m[1]), float(m[2])
-        self._pub_clock.publish(self._clock_msg)
-        self._pub_wrench.publish(self._wrench)
+        t, clock_ns = w.t_ns, self.cfg.clock_period_ns
+        if not clock_ns or t % clock_ns < self.cfg.control_period_ns:   # the tick that crosses a /clock period
+            self._pub_clock.publish(self._clock_msg)
+        if self._pub_wrench.get_subscription_count():     # VOLATILE: no subscriber, nobody misses it (1 us)
+            f, m = w.contact_wrench()
+            force, torque = self._force, self._torque
+            force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
+            torque.x, torque.y, torque.z = float(m[0]), float(m[1]), float(m[2])
+            self._pub_wrench.publish(self._wrench)
         self._pub_js.publish(self._js)
         self._wall_last_pub = time.monotonic_ns()
+        self._deadline.state(t, self._wall_last_pub)
 
     def _step(self):
         """One control tick: hold the torque in force for control_period, publish the new state."""
@@ -332,7 +338,10 @@ class SimBridge(Node):
             self._lockstep_answer(self._mapper.map_named(msg.name, msg.effort), ok)
         else:
             ok = self._guard.check(0, self._world.t_ns)
-            self._realtime_command(self._mapper.map_named(msg.name, msg.effort), ok)
+            reason = self._mapper.map_named(msg.name, msg.effort)
+            if reason is None and ok:
+                self._deadline.command(stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec), time.monotonic_ns())
+            self._realtime_command(reason, ok)
 
     def _on_array_command(self, msg):
         ok = self._guard.check(1, self._world.t_ns)
@@ -426,6 +435,7 @@ class SimBridge(Node):
             t = w.t_ns
             if self._brake_reason or self._watchdog.stale(t) or self._guard.in_conflict(t):
                 self._update_brakes(t)
+            self._deadline.step(t)
             self._step()
 
     def _on_lockstep_timer(self):
@@ -515,7 +525,10 @@ class SimBridge(Node):
         else:
             pacing.update({'real_time_factor': cfg.real_time_factor,
                            'achieved_real_time_factor': self._achieved_rtf if self._achieved_rtf else 'n/a',
-                           'overruns': self._pacer.overruns})
+                           'overruns': self._pacer.overruns,
+                           'deadline_hits': self._deadline.hits, 'deadline_misses': self._deadline.misses,
+                           'latency_p50_ms': self._deadline.latency_ms(50) or 'n/a',
+                           'latency_p99_ms': self._deadline.latency_ms(99) or 'n/a'})
             pacing_level, pacing_msg = 'OK', f'realtime x{cfg.real_time_factor}'
             if self._pacer.overruns:
                 pacing_level, pacing_msg = 'WARN', f'{pacing_msg}: {self._pacer.overruns} overruns (stalls > 0.1 s)'
@@ -579,21 +592,6 @@ class SimBridge(Node):
         return super().destroy_node()
 
 
-def make_executor(kind, context=None):
-    """'events': rclpy's C++ EventsExecutor (about 3x the lockstep rate of the default one), falling
-    back to 'single' (rclpy SingleThreadedExecutor) where this rclpy has no EventsExecutor."""
-    if kind == 'events':
-        try:
-            from rclpy.experimental import EventsExecutor
-        except ImportError:
-            kind = 'single'
-        else:
-            return EventsExecutor(context=context)
-    if kind != 'single':
-        raise ValueError(f'executor: expected events or single, got {kind!r}')
-    return rclpy.executors.SingleThreadedExecutor(context=context)
-
-
 def _parse_args(argv):
     import argparse
     parser = argparse.ArgumentParser(
@@ -610,7 +608,7 @@ def main(args=None):
     """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`; returns the exit code."""
     argv = sys.argv if args is None else args
     opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    rclpy.init(args=argv)
+    stop = spin.init_with_stop_on_signals(argv)
     node = None
     executor = None
     try:
@@ -621,10 +619,7 @@ def main(args=None):
             return 2
         executor = make_executor(opts.executor)
         executor.add_node(node)
-        # spin_once in a loop rather than spin(): SIGINT/SIGTERM shut the context down from rclpy's
-        # C signal handler, which the EventsExecutor's spin() does not notice
-        while rclpy.ok():
-            executor.spin_once(0.1)
+        spin.spin(executor, stop=stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:

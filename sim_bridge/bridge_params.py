@@ -14,6 +14,7 @@ Every failure is a ValueError whose message starts with the parameter name.
 | mode | string | - | realtime (realtime or lockstep) | read-only |
 | physics_step | double | s | 0.001 | read-only |
 | control_period | double | s | 0.001 (integer multiple of physics_step) | read-only |
+| clock_period | double | s (sim time) | 0.01 (0 = every control period) | read-only |
 | real_time_factor | double | - | 1.0 | dynamic |
 | command_timeout | double | s (sim time) | 0.05 | dynamic |
 | lockstep_timeout | double | s (wall time) | 0.1 | dynamic |
@@ -99,6 +100,9 @@ def specs(scenario_name, n):
         ParamSpec('control_period', 'double', 0.001,
                   'Control period, s: state published and command held for this long; an integer '
                   'multiple of physics_step.'),
+        ParamSpec('clock_period', 'double', 0.01,
+                  'Period of /clock, s of simulation time (0 = every control period); like gazebo_ros\'s '
+                  'publish_rate, a 1 kHz /clock would wake every use_sim_time node 1000 times a second.'),
         ParamSpec('real_time_factor', 'double', 1.0,
                   'Realtime mode: simulated seconds per wall-clock second (> 0).', read_only=False),
         ParamSpec('command_timeout', 'double', 0.05,
@@ -151,6 +155,7 @@ class BridgeConfig:
     physics_step_ns: int
     control_period_ns: int
     substeps: int
+    clock_period_ns: int
     real_time_factor: float
     command_timeout: float
     command_timeout_ns: int
@@ -270,6 +275,8 @@ def validate(values):
     if control_ns % physics_ns:
         raise ValueError(f'control_period: expected an integer multiple of physics_step {physics_step} s, '
                          f'got {control_period} s')
+    clock_period = _finite('clock_period', v['clock_period'], nonnegative=True)
+    clock_ns = _whole_ns('clock_period', clock_period) if clock_period else 0
     rtf = _finite('real_time_factor', v['real_time_factor'], positive=True)
     timeout = _finite('command_timeout', v['command_timeout'], positive=True)
     if timeout <= control_period:
@@ -304,7 +311,7 @@ def validate(values):
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=joints, initial_positions=q0, mode=mode,
         physics_step=physics_step, control_period=control_period, physics_step_ns=physics_ns,
-        control_period_ns=control_ns, substeps=control_ns // physics_ns, real_time_factor=rtf,
+        control_period_ns=control_ns, substeps=control_ns // physics_ns, clock_period_ns=clock_ns, real_time_factor=rtf,
         command_timeout=timeout, command_timeout_ns=round(timeout * 1e9), lockstep_timeout=lockstep_timeout,
         surface_enable=surface_enable, k_e=k_e, x_e=x_e, disturbance_joint_torque=dist_tau,
         disturbance_cartesian_force=dist_f, sim_params=sim_params, wrench_frame_id=frame,

@@ -291,3 +291,42 @@ class RateMeter:
         rtf = (sim_ns - self._sim) / (wall_ns - self._wall)
         self.reset(wall_ns, sim_ns)
         return rtf
+
+
+class DeadlineMeter:
+    """Realtime: did the command answering the state of tick k arrive before tick k+1's physics step?
+
+    state(t_ns, wall_ns): the state stamped t_ns was published at wall_ns. command(stamp_ns, wall_ns):
+    a valid command stamped stamp_ns arrived; when it answers the latest state its latency
+    (wall_ns - publication) is kept (the last `window` of them). step(t_ns): the physics step that
+    leaves the state t_ns is about to run: a hit when that state was answered, else a miss.
+    """
+
+    def __init__(self, window=1000):
+        self.hits = 0
+        self.misses = 0
+        self._state_ns = None
+        self._state_wall = 0
+        self._answered_ns = None
+        self._latency = np.zeros(int(window))
+        self._count = 0
+
+    def state(self, t_ns, wall_ns):
+        self._state_ns, self._state_wall = t_ns, wall_ns
+
+    def command(self, stamp_ns, wall_ns):
+        if stamp_ns == self._state_ns and self._answered_ns != stamp_ns:
+            self._answered_ns = stamp_ns
+            self._latency[self._count % self._latency.shape[0]] = wall_ns - self._state_wall
+            self._count += 1
+
+    def step(self, t_ns):
+        if self._answered_ns == t_ns:
+            self.hits += 1
+        else:
+            self.misses += 1
+
+    def latency_ms(self, q):
+        """Percentile q (0..100) of the kept latencies, ms; None before the first answer."""
+        k = min(self._count, self._latency.shape[0])
+        return float(np.percentile(self._latency[:k], q)) / 1e6 if k else None

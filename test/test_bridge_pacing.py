@@ -218,3 +218,19 @@ def test_custom_urdf_needs_urdf_and_joints():
         '', urdf='kuka_iiwa/model.urdf', joints=['lbr_iiwa_joint_1', 'lbr_iiwa_joint_2']))
     assert cfg.n == 2 and cfg.initial_positions.tolist() == [0.0, 0.0] and not cfg.surface_enable
     assert cfg.urdf.endswith('kuka_iiwa/model.urdf')
+
+
+def test_deadline_meter_counts_answers_before_the_next_step():
+    from sim_bridge.pacing import DeadlineMeter
+    meter = DeadlineMeter(window=8)
+    assert meter.latency_ms(50) is None
+    meter.state(0, 1_000_000)
+    meter.command(0, 1_400_000)          # answers state 0 after 0.4 ms
+    meter.step(0)                        # hit
+    meter.state(1_000_000, 2_000_000)
+    meter.step(1_000_000)                # no answer yet: miss
+    meter.command(1_000_000, 3_100_000)  # too late for that step, still a latency sample
+    meter.state(2_000_000, 3_000_000)
+    meter.command(1_000_000, 3_200_000)  # answers an old state: ignored
+    assert (meter.hits, meter.misses) == (1, 1)
+    assert meter.latency_ms(50) == pytest.approx((0.4 + 1.1) / 2)

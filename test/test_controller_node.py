@@ -82,7 +82,8 @@ class Robot:
         return callback
 
     def wait_connected(self, executor):
-        pubs = (self.state_pub, self.ft_pub, self.traj_pub, self.wref_pub)
+        # ft_sensor/wrench is subscribed only while the law reads the measured force (send_until waits)
+        pubs = (self.state_pub, self.traj_pub, self.wref_pub)
         node = self.node
         assert spin_until(executor, lambda: all(p.get_subscription_count() >= 1 for p in pubs)
                           and node.count_publishers('/robot_joint_commands') >= 1
