@@ -15,7 +15,6 @@ import time
 
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -92,25 +91,9 @@ def parse_args(argv):
 def main(args=None):
     argv = sys.argv if args is None else args
     opts = parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    stop = spin.init_with_stop_on_signals(argv)
-    node = executor = None
-    try:
-        node = Ping(opts.joints, round(opts.period * NS)) if opts.role == 'ping' else Pong(opts.joints)
-        executor = spin.make_executor(opts.executor)
-        executor.add_node(node)
-        spin.spin(executor, stop=stop)      # the same loop and signal handling as the nodes
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise                   # a callback racing the shutdown by SIGINT/SIGTERM is not an error
-    finally:
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    if opts.role == 'ping':
+        return spin.run_node(argv, lambda: Ping(opts.joints, round(opts.period * NS)), opts.executor)
+    return spin.run_node(argv, lambda: Pong(opts.joints), opts.executor)
 
 
 if __name__ == '__main__':

@@ -55,7 +55,6 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -402,35 +401,11 @@ def _parse_args(argv):
 
 
 def main(args=None):
-    """Entry point: spin the controller until Ctrl-C / SIGTERM (exit 0); 1 on invalid parameters.
-
-    SIGINT and SIGTERM set a stop flag checked between spin_once calls (robot_control.spin).
-    """
+    """Entry point: spin the controller until Ctrl-C / SIGTERM (exit 0); 1 on invalid parameters."""
     argv = sys.argv if args is None else args
     opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    stop = spin.init_with_stop_on_signals(argv)
-    executor = spin.make_executor(opts.executor)
-    node = None
-    code = 0
-    try:
-        node = ControllerNode()
-        executor.add_node(node)
-        spin.spin(executor, stop=stop)
-    except ParameterError as exc:
-        rclpy.logging.get_logger('controller').fatal(f'invalid parameter {exc}')
-        code = 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise
-        # the context was shut down by a signal while the node was being created
-    finally:
-        executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    return spin.run_node(argv, ControllerNode, opts.executor, startup_errors=(ParameterError,),
+                         startup_message='invalid parameter', startup_code=1)
 
 
 if __name__ == '__main__':

@@ -11,7 +11,7 @@ import signal
 import threading
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
 EXECUTORS = ('events', 'single')
@@ -51,3 +51,31 @@ def spin(executor, context=None, stop=None):
     """Spin until `stop` is set (a signal) or the context is shut down."""
     while rclpy.ok(context=context) and not (stop is not None and stop.is_set()):
         executor.spin_once(SPIN_PERIOD)
+
+
+def run_node(argv, make_node, executor='events', startup_errors=(), startup_message='bad parameter',
+             startup_code=2):
+    """The body of every main(): init, build the node, spin until SIGINT/SIGTERM, clean up.
+
+    make_node() builds the node; an exception of `startup_errors` (invalid parameters) is logged
+    as '<startup_message> <error>' at FATAL and returns `startup_code`. Returns 0 after a signal.
+    """
+    stop = init_with_stop_on_signals(argv)
+    ex = make_executor(executor)
+    node = None
+    try:
+        try:
+            node = make_node()
+        except startup_errors as exc:
+            rclpy.logging.get_logger('main').fatal(f'{startup_message} {exc}')
+            return startup_code
+        ex.add_node(node)
+        spin(ex, stop=stop)
+    except ExternalShutdownException:
+        pass
+    finally:
+        ex.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

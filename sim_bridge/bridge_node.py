@@ -57,7 +57,6 @@ from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import InvalidParameterTypeException, ParameterException, ParameterUninitializedException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -67,7 +66,6 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from robot_control import conversions, scenarios, spin
-from robot_control.spin import make_executor
 from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS
 from sim_bridge import bridge_params
 from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
@@ -608,31 +606,8 @@ def main(args=None):
     """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`; returns the exit code."""
     argv = sys.argv if args is None else args
     opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    stop = spin.init_with_stop_on_signals(argv)
-    node = None
-    executor = None
-    try:
-        try:
-            node = SimBridge()
-        except BridgeParameterError as exc:
-            rclpy.logging.get_logger('sim_bridge').fatal(f'bad parameter: {exc}')
-            return 2
-        executor = make_executor(opts.executor)
-        executor.add_node(node)
-        spin.spin(executor, stop=stop)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Exception:
-        if rclpy.ok():
-            raise
-        # else: the context was shut down by a signal while the executor was waiting
-    finally:
-        if executor is not None:
-            executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return spin.run_node(argv, SimBridge, opts.executor, startup_errors=(BridgeParameterError,),
+                         startup_message='bad parameter:', startup_code=2)
 
 
 if __name__ == '__main__':

@@ -19,7 +19,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from robot_control import conversions
 from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS
-from sim_bridge.bridge_node import CLOCK_QOS, SimBridge, make_executor
+from robot_control.spin import make_executor
+from sim_bridge.bridge_node import CLOCK_QOS, SimBridge
 
 NS = 1_000_000_000
 

@@ -218,7 +218,7 @@ def test_realtime_factor_is_tracked(harness):
     rtf = (h.bridge.world.t_ns - sim0) / (time.monotonic_ns() - wall0)
     # Paced faster than real time but never ahead of 2x the wall clock. How close to 2.0 it gets
     # depends on free CPU (1.7 seen with load average 10 on 2 cores): `make bench` measures that.
-    assert 1.2 < rtf <= 2.0 * 1.01
+    assert rtf > 1.2
     assert h.bridge.world.t_ns <= 2 * (time.monotonic_ns() - wall0) + sim0 + MS   # never ahead
 
 
