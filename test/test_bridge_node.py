@@ -210,16 +210,21 @@ def test_realtime_brakes_on_stale_command_and_releases_on_fresh(harness):
     assert h.spin_until(lambda: h.probe.last_diag('brakes')[0] == 'OK')
 
 
-def test_realtime_factor_is_tracked(harness):
-    h = harness(hold_polar, mode='realtime', real_time_factor=2.0, diagnostics_period=0.05)
-    assert h.spin_until(lambda: h.bridge.world.t_ns >= 20 * MS)
+def test_realtime_factor_holds_the_simulation_back(harness):
+    """At a factor of 0.5 the simulation advances, never faster than 0.5 s per wall second.
+
+    The upper bound is the pacer's promise (exact with a fake clock in test_bridge_pacing); how
+    close to 0.5 it gets depends on free CPU (0.35 seen at load average 5 on 2 cores), which
+    `make bench` measures as realtime_rtf, not a test.
+    """
+    h = harness(hold_polar, mode='realtime', real_time_factor=0.5, diagnostics_period=0.05)
+    assert h.spin_until(lambda: h.bridge.world.t_ns >= 100 * MS)
     wall0, sim0 = time.monotonic_ns(), h.bridge.world.t_ns
-    h.spin_for(1.0)
+    h.spin_for(2.0)
     rtf = (h.bridge.world.t_ns - sim0) / (time.monotonic_ns() - wall0)
-    # Paced faster than real time but never ahead of 2x the wall clock. How close to 2.0 it gets
-    # depends on free CPU (1.7 seen with load average 10 on 2 cores): `make bench` measures that.
-    assert rtf > 1.2
-    assert h.bridge.world.t_ns <= 2 * (time.monotonic_ns() - wall0) + sim0 + MS   # never ahead
+    # a pacer lagging at wall0 may catch up inside the window: at most 100 ms of wall time
+    # (RealtimePacer.max_lag_ns), 0.05 s simulated of the 1 s expected
+    assert 0.0 < rtf <= 0.5 * 1.05
 
 
 # -- bad input ------------------------------------------------------------------------------------
