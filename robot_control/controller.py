@@ -45,6 +45,14 @@ Bumpless switching (documented behaviour, tested):
 Anti-windup: entry i of the integral is frozen on a tick if on the previous tick joint i was
 saturated and E_i had the sign of its torque (integrating would push further into the limit);
 for the task-space integral of the hybrid law every entry is frozen while any joint saturates.
+In addition, on every saturated tick the integral is back-calculated toward the value whose law
+torque equals the saturated torque, with tracking time constant Tt = sqrt(kv / ki) per entry
+(_back_calculate): a saturated step then recovers without the integral's extra overshoot.
+
+Lost contact (force and hybrid laws): a robot_control.safety.ContactGuard watches every force axis.
+When the axis travels more than contact_max_travel past the surface that the measured force explains,
+or moves faster than contact_max_speed, the axis is held in position (latched until a restart or a
+new force reference) and `contact_guard.reason` says why.
 
 Fallback: if the law fails (non-finite result, singular task Jacobian) the core sends the
 gravity-hold torque g(q) (saturated) instead and counts it (`fallbacks`, `last_fallback`).
@@ -62,6 +70,7 @@ from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, in
 from robot_control.laws.saturation import clip_into
 from robot_control.laws.servo import limit_vector
 from robot_control.models.base import RobotModel
+from robot_control.safety import ContactGuard
 from robot_control.trajectory import from_points, hold
 from robot_control.validation import finite, is_vector
 
@@ -97,6 +106,9 @@ class ControllerConfig:
     posture_gains: (kp0 1/s^2, kv0 1/s) of the null-space posture (hybrid, redundant arms).
     move_time: duration of a set_goal() move, s (> 0).
     force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
+    contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
+      measured force explains, m/s along the axis; > 0, inf = off, the library default; the node's
+      parameters default to 0.05 m and 0.5 m/s), robot_control.safety.ContactGuard.
     """
 
     model: RobotModel
@@ -114,6 +126,8 @@ class ControllerConfig:
     posture_gains: tuple = (25.0, 10.0)
     move_time: float = 2.0
     force_ramp_time: float = 0.5
+    contact_max_travel: float = math.inf
+    contact_max_speed: float = math.inf
 
     def __post_init__(self):
         model = self.model
@@ -157,6 +171,11 @@ class ControllerConfig:
         set_('posture_gains', (kp0, kv0))
         set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
         set_('force_ramp_time', validation.scalar('force_ramp_time', self.force_ramp_time, nonnegative=True))
+        for name in ('contact_max_travel', 'contact_max_speed'):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
+                raise ValueError(f'{name}: expected a positive bound (inf = off), got {value!r}')
+            set_(name, float(value))
         self._check_law(n, m, k)
 
     def _check_law(self, n, m, k):
@@ -206,22 +225,30 @@ class ControllerConfig:
 
     def integral_ki(self):
         """Ki per integral entry (zeros when integral is off)."""
+        return self._integral_gain('ki')
+
+    def integral_kv(self):
+        """Kv of the servo loop of each integral entry (zeros when integral is off); the tracking
+        time constant of the back-calculation anti-windup is sqrt(kv / ki)."""
+        return self._integral_gain('kv')
+
+    def _integral_gain(self, attr):
         dim = self.integral_dim
         if not self.integral:
             return np.zeros(dim)
         if self.law in JOINT_LAWS:
-            return np.array(self.gains.ki)
+            return np.array(getattr(self.gains, attr))
         if self.law == 'force':
-            return np.array(self.force_gains.ki)
+            return np.array(getattr(self.force_gains, attr))
         mask = self.force_mask
-        ki = np.zeros(dim)
+        out = np.zeros(dim)
         if self.force_gains is not None and self.force_axes:
-            ki[mask] = self.force_gains.ki
+            out[mask] = getattr(self.force_gains, attr)
         motion = ~mask
         if motion.any() and self.gains is not None:
-            g = np.asarray(self.gains.ki)
-            ki[motion] = g[motion] if g.shape[0] == dim else g
-        return ki
+            g = np.asarray(getattr(self.gains, attr))
+            out[motion] = g[motion] if g.shape[0] == dim else g
+        return out
 
     def law_key(self):
         """What the law computes with; a change triggers bumpless re-initialisation."""
@@ -270,6 +297,8 @@ class ControllerCore:
         self.fallbacks = 0
         self.last_fallback = ''
         self.restarts = 0
+        self._guard = None                  # ContactGuard of the force axes (made by _plan)
+        self._windup_step = None            # anti-windup back-calculation pending for the next tick
         self._setup_force(config, keep_target=False)
         self._setup_buffers(config)
         self._integral = self._make_integral(config)
@@ -393,6 +422,8 @@ class ControllerCore:
         self._f_target = f_target.copy()
         if self.active and k:
             self._force_traj = self._ramp(self._t, self._force_traj.sample(self._t), f_target)
+        if self._guard is not None:
+            self._guard.reset()             # a new force reference acknowledges a lost-contact stop
 
     def _ramp(self, t, start, target):
         ramp = self._cfg.force_ramp_time
@@ -428,6 +459,8 @@ class ControllerCore:
         if self._cfg.force_axes:
             start = self._f_target if f is None else f
             self._force_traj = self._ramp(t, (start, None, None), self._f_target)
+        if self._guard is not None:
+            self._guard.reset()
 
     # -- the tick --------------------------------------------------------------------------------
     def _plan(self, cfg):
@@ -445,6 +478,10 @@ class ControllerCore:
         self._gains_T = cfg.gains if (~mask).any() else None
         self._gains_N = cfg.force_gains if self._has_force else None
         self._neg_limit = -cfg.effort_limit
+        guarded = (self._has_force and cfg.law in TASK_LAWS
+                   and (math.isfinite(cfg.contact_max_travel) or math.isfinite(cfg.contact_max_speed)))
+        self._guard = ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel,
+                                   cfg.contact_max_speed) if guarded else None
         self._plan_for = cfg
 
     def update(self, t, q, qd, f_meas=None):
@@ -487,6 +524,8 @@ class ControllerCore:
         self._traj.sample_into(t, self._q_d, self._qd_d, self._qdd_d)
         if self._has_force:
             self._force_traj.sample_into(t, self._f_d, self._fd_d, self._fdd_d)
+            if self._guard is not None:
+                self._guard_contact(x, xd, f_axes)
 
         # the law's inputs of this tick, read by _evaluate()
         self._tick = (q, qd, x, xd, f_axes, fdot_axes)
@@ -499,10 +538,13 @@ class ControllerCore:
             self._hybrid_reference(cfg, x, xd, f_axes, fdot_axes)
 
         int_E = None
+        windup_step, self._windup_step = self._windup_step, None
         if cfg.integral:
             if self._reinit:
                 self._reinitialise(cfg, self._evaluate)
             elif dt > 0.0:
+                if windup_step is not None:         # back-calculation of the last (saturated) tick
+                    self._integral.preset(self._integral.value + windup_step)
                 self._integral.update(self._E, dt, hold=self._hold_mask(cfg))
             int_E = self._integral.value
         elif self._reinit:
@@ -513,9 +555,12 @@ class ControllerCore:
             tau = self._evaluate(int_E)
         except (ValueError, np.linalg.LinAlgError) as exc:
             tau = self._fallback(model, q, exc)
+            int_E = None
         # laws.saturate without its argument checks: tau is finite (law or fallback), the limits
         # were checked with the config
         clip_into(tau, cfg.effort_limit, self._neg_limit, self._tau, self._sat)
+        if int_E is not None and dt > 0.0 and np.count_nonzero(self._sat):
+            self._back_calculate(cfg, np.array(tau, dtype=float), dt)
         self._tau_prev[:] = self._tau
         self._has_prev = True
         self.ticks += 1
@@ -592,13 +637,61 @@ class ControllerCore:
                 f_m[i], fdot_m[i] = f[j], fdot[j]
                 E[i], Ed[i] = f_d[j] - f[j], fd_d[j] - fdot[j]
 
+    def _guard_contact(self, x, xd, f):
+        """Lost contact: on the force axes the guard trips on, the force reference becomes a position
+        hold, f_d = f + k_e (x_hold - x) (the force servo's own gains then hold x_hold)."""
+        guard = self._guard
+        x_n, xd_n = x[self._fidx], xd[self._fidx]
+        guard.check(x_n, xd_n, f, self._f_target)
+        if guard.active:
+            guard.substitute(x_n, f, self._f_d, self._fd_d, self._fdd_d)
+
+    @property
+    def contact_guard(self):
+        """The lost-contact guard (robot_control.safety.ContactGuard) of the force axes, or None."""
+        return self._guard
+
     def _hold_mask(self, cfg):
         """Anti-windup: which integral entries to freeze this tick (from the last tick's saturation)."""
+        if self._guard is not None and self._guard.active:
+            return np.ones(self._integral.n, dtype=bool)      # lost contact: the integral waits
         if not self._sat_any:
             return None
         if cfg.law == 'hybrid':
             return np.ones(self._integral.n, dtype=bool)
         return self._sat & (self._E * self._tau_prev > 0.0)
+
+    def _back_calculate(self, cfg, tau_law, dt):
+        """Anti-windup by back-calculation (Astrom and Hagglund, Advanced PID Control, sec. 3.5).
+
+        After a saturated tick the integral moves toward the value whose law torque is the saturated
+        torque (applied at the start of the next tick): int += min(1, dt / Tt) d, d the least-squares solution of B d = tau_sat - tau_law,
+        B = d tau / d int (the laws are affine in the integral), with the tracking time constant
+        Tt = sqrt(Ti Td) = sqrt(kv / ki) s per entry. The hold mask alone stops the integral from
+        growing while saturated, but not the integral of the large error left once the reference
+        has run ahead of the saturated robot: the PID then overshoots far beyond its unsaturated
+        response. Costs one law evaluation per integral entry, on saturated ticks only.
+        """
+        ki = cfg.integral_ki()
+        cols = np.flatnonzero(ki > 0.0)
+        if cols.size == 0:
+            return
+        z0 = np.array(self._integral.value)
+        z = z0.copy()
+        B = np.empty((tau_law.shape[0], cols.size))
+        try:
+            for c, j in enumerate(cols):
+                z[j] = z0[j] + 1.0
+                B[:, c] = np.asarray(self._evaluate(z), dtype=float) - tau_law
+                z[j] = z0[j]
+            d = np.linalg.lstsq(B, self._tau - tau_law, rcond=None)[0]
+        except (ValueError, np.linalg.LinAlgError):
+            return
+        if np.all(np.isfinite(d)):
+            tracking = np.sqrt(cfg.integral_kv()[cols] / ki[cols])
+            step = np.zeros(z0.shape[0])
+            step[cols] = np.minimum(1.0, dt / np.maximum(tracking, dt)) * d
+            self._windup_step = step        # applied at the next tick: integral_value stays the one used
 
     def _reinitialise(self, cfg, evaluate):
         """Bumpless transfer: integral such that the new law's torque equals the last torque sent."""

@@ -63,7 +63,7 @@ from trajectory_msgs.msg import JointTrajectory
 from robot_control import conversions, spin
 from robot_control.controller import ControllerCore
 from robot_control.params import ControllerParameters, ParameterError
-from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_QOS
+from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
@@ -122,8 +122,12 @@ class ControllerNode(Node):
         self._error_msg = JointState()
         self._f_meas = np.zeros(len(self._task_axes))
         self._wrench_seen = False
+        self._wrench_stamp_ns = None    # header.stamp of the wrench in _f_meas (None: none yet)
+        self._held_state = None         # a joint_states waiting for the wrench of its stamp
         self._epoch_ns = None
         self._last_state_ns = None      # node clock at the last valid joint_states
+        self._last_state_steady_ns = None   # steady clock at the last valid joint_states
+        self._last_stamp_ns = None      # header.stamp of the last valid joint_states
         self._tripped = False
         self.trips = 0
         self.rejected = dict.fromkeys(INPUTS, 0)
@@ -131,20 +135,23 @@ class ControllerNode(Node):
         self.commands_sent = 0
         self.trajectories_accepted = 0
         self.tick_stats = TickStats()
+        self._contact_trips = 0
         self._pending = None
         self._apply_references(snapshot.values, initial=True)
 
-        self._cmd_pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_QOS)
+        self._cmd_pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_PUB_QOS)
         self._array_pub = None
         self._set_array_publisher(snapshot.values['publish_effort_array'])
-        self._ref_pub = self.create_publisher(JointState, '~/reference', REFERENCE_QOS)
-        self._err_pub = self.create_publisher(JointState, '~/error', REFERENCE_QOS)
+        self._ref_pub = self.create_publisher(JointState, '~/reference', REFERENCE_PUB_QOS)
+        self._err_pub = self.create_publisher(JointState, '~/error', REFERENCE_PUB_QOS)
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
+        # ft_sensor/wrench before joint_states: when a state and its wrench are both waiting, rclpy
+        # runs the callbacks in creation order, so the tick's wrench is in place first
+        self._ft_sub = None
+        self._set_ft_subscription(cfg)
         self.create_subscription(JointState, 'joint_states', self._on_joint_states, CONTROL_QOS)
         self.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory, REFERENCE_QOS)
         self.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference, REFERENCE_QOS)
-        self._ft_sub = None
-        self._set_ft_subscription(cfg)
 
         self._watchdog = None
         self._diag_timer = None
@@ -178,6 +185,25 @@ class ControllerNode(Node):
 
     # -- state -> command ------------------------------------------------------------------------
     def _on_joint_states(self, msg):
+        """Answer a state; with sensor force feedback, with the wrench of the same stamp.
+
+        The bridge publishes ft_sensor/wrench and joint_states with the same stamp on two topics. A
+        state whose wrench has not arrived yet is held until it does, or until the next state (in
+        lockstep: the bridge's re-publication after lockstep_timeout), which first answers the held one
+        with the newest wrench. The command then never depends on which of the two messages the
+        executor took first, from the first tick on: lockstep runs stay bit-identical. A sensor that
+        publishes unstamped wrenches (stamp 0) keeps the newest-wins behaviour.
+        """
+        if self._ft_sub is not None and self._wrench_stamp_ns != 0:
+            stamp = conversions.stamp_to_ns(msg.header.stamp)
+            if stamp and stamp != self._wrench_stamp_ns:
+                held, self._held_state = self._held_state, msg
+                if held is not None:
+                    self._answer(held)
+                return
+        self._answer(msg)
+
+    def _answer(self, msg):
         t_in = time.perf_counter_ns()
         try:
             q, qd = self._reader.read(msg)
@@ -187,6 +213,18 @@ class ControllerNode(Node):
         now_ns = self.get_clock().now().nanoseconds
         msg_stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
         stamp_ns = msg_stamp_ns or now_ns
+        if stamp_ns < 0:
+            self._reject('joint_states', f'header.stamp: negative time {stamp_ns * 1e-9:.9f} s')
+            return
+        last = self._last_stamp_ns
+        if (last is not None and not self._tripped and self._core.active
+                and abs(stamp_ns - last) > self._state_timeout * 1e9):
+            self._reject('joint_states', f'header.stamp: {(stamp_ns - last) * 1e-9:+.6g} s from the previous state, '
+                                         f'more than state_timeout {self._state_timeout:g} s (a clock reset restarts '
+                                         'the controller once the watchdog trips)')
+            return
+        self._last_stamp_ns = stamp_ns
+        self._last_state_steady_ns = self._steady.now().nanoseconds
         if self._epoch_ns is None:
             self._epoch_ns = stamp_ns
         self._last_state_ns = now_ns
@@ -204,6 +242,11 @@ class ControllerNode(Node):
             self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
         self.commands_sent += 1
         self.tick_stats.add(time.perf_counter_ns() - t_in)
+        guard = self._core.contact_guard
+        if guard is not None and guard.trips != self._contact_trips:
+            self._contact_trips = guard.trips
+            self.get_logger().error(guard.reason)
+            self._publish_diagnostics()
         # ~/reference and ~/error are VOLATILE: with no subscriber a sample reaches no one, so the
         # message is neither built nor serialized (a count query costs a fifth of a publish)
         names = self._core.reference_names
@@ -225,6 +268,11 @@ class ControllerNode(Node):
             return
         self._f_meas[:] = f
         self._wrench_seen = True
+        self._wrench_stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
+        held = self._held_state
+        if held is not None and conversions.stamp_to_ns(held.header.stamp) == self._wrench_stamp_ns:
+            self._held_state = None
+            self._answer(held)
 
     def _time_of(self, stamp_ns):
         """A message stamp on the core's time base (None for a zero stamp = now)."""
@@ -268,12 +316,15 @@ class ControllerNode(Node):
         if self._watchdog is not None:
             self.destroy_timer(self._watchdog)
         self._state_timeout = timeout
-        self._watchdog = self.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog)
+        # on the steady clock: with use_sim_time a dead simulator also stops /clock, and a ROS-time timer
+        self._watchdog = self.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog,
+                                           clock=self._steady)
 
     def _check_watchdog(self):
         if self._tripped or self._last_state_ns is None or not self._core.active:
             return
         age = (self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9
+        age = max(age, (self._steady.now().nanoseconds - self._last_state_steady_ns) * 1e-9)   # wall time too
         if age > self._state_timeout:
             self._tripped = True
             self.trips += 1
@@ -293,7 +344,8 @@ class ControllerNode(Node):
         core, cfg = self._core, self._core.config
         hw = name
         if self._tripped:
-            age = (self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9
+            age = max((self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9,
+                      (self._steady.now().nanoseconds - self._last_state_steady_ns) * 1e-9)
             watchdog = ('ERROR', f'no joint_states for {age:.3f} s (state_timeout {self._state_timeout:g} s): '
                                  'not commanding')
         elif self._last_state_ns is None:
@@ -322,9 +374,13 @@ class ControllerNode(Node):
         needs_sensor = cfg.force_axes and cfg.law in ('force', 'hybrid') and cfg.force_feedback == 'sensor'
         if needs_sensor and not self._wrench_seen:
             level, message = 'WARN', f'{message}; no ft_sensor/wrench received (force taken as 0)'
+        guard = core.contact_guard
+        if guard is not None and guard.active:
+            level, message = 'ERROR', f'{message}; {guard.reason}'
         status.append(conversions.diagnostic_status(
             f'{name}: control law', level, message,
             [('law', cfg.law), ('integral', cfg.integral), ('fallbacks', core.fallbacks),
+             ('contact_trips', guard.trips if guard is not None else 0),
              ('tick_mean_us', round(self.tick_stats.mean_us, 1)),
              ('tick_max_us', round(self.tick_stats.max_ns / 1e3, 1)), ('ticks', self.tick_stats.count)], hw))
         return status
@@ -384,7 +440,7 @@ class ControllerNode(Node):
 
     def _set_array_publisher(self, enabled):
         if enabled and self._array_pub is None:
-            self._array_pub = self.create_publisher(Float64MultiArray, 'effort_controller/commands', CONTROL_QOS)
+            self._array_pub = self.create_publisher(Float64MultiArray, 'effort_controller/commands', CONTROL_PUB_QOS)
         elif not enabled and self._array_pub is not None:
             self.destroy_publisher(self._array_pub)
             self._array_pub = None

@@ -28,6 +28,15 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from robot_control import validation
 
 NS_PER_S = 1_000_000_000
+#: largest magnitude accepted in a measurement or reference (rad, m, rad/s, m/s, N, ...): beyond it a
+#: value is not physical but a corrupted message, and would overflow the laws or the error integral
+MAX_ABS = 1e6
+
+
+def _plausible(a):
+    """True when every entry of the float array `a` is finite and |a_i| <= MAX_ABS."""
+    values = a.tolist()
+    return not values or (max(values) <= MAX_ABS and min(values) >= -MAX_ABS)
 WRENCH_AXES = ('x', 'y', 'z')
 
 
@@ -111,12 +120,16 @@ class JointStateReader:
         else:
             np.take(np.asarray(position, dtype=float), index, out=self._q)
             np.take(np.asarray(velocity, dtype=float), index, out=self._qd)
-        if validation.finite(self._q) and validation.finite(self._qd):
+        if (validation.finite(self._q) and validation.finite(self._qd) and _plausible(self._q)
+                and _plausible(self._qd)):
             return self._q, self._qd
         for field, values in (('position', self._q), ('velocity', self._qd)):
             if not np.isfinite(values).all():
                 bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
                 raise ValueError(f'{field}: not finite for {", ".join(bad)}')
+            if not _plausible(values):
+                bad = [f'{self.joints[i]!r}: {values[i]:g}' for i in np.flatnonzero(np.abs(values) > MAX_ABS)]
+                raise ValueError(f'{field}: implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')
         return self._q, self._qd
 
 
@@ -205,6 +218,8 @@ def _point_field(points, field, n, order, required):
         row = np.asarray(getattr(p, field), dtype=float)
         if not np.isfinite(row).all():
             raise ValueError(f'points[{i}].{field}: not finite {row.tolist()}')
+        if not _plausible(row):
+            raise ValueError(f'points[{i}].{field}: implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
         out[i] = row[order]
     return out
 
@@ -282,6 +297,8 @@ def wrench_force(msg, axes, out=None):
         out[k] = xyz[i]
     if not np.isfinite(out).all():
         raise ValueError(f'wrench.force: not finite {list(xyz)}')
+    if not _plausible(out):
+        raise ValueError(f'wrench.force: implausible magnitude (> {MAX_ABS:g} N) {list(xyz)}')
     return out
 
 

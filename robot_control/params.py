@@ -175,6 +175,12 @@ def specs(defaults):
         Spec('move_time', T.DOUBLE, 2.0, 'duration of a q_d move, s', '> 0'),
         Spec('posture_kp', T.DOUBLE, 25.0, 'null-space posture stiffness (hybrid, redundant arms), 1/s^2', '>= 0'),
         Spec('posture_kv', T.DOUBLE, 10.0, 'null-space posture damping (hybrid, redundant arms), 1/s', '>= 0'),
+        Spec('contact_max_travel', T.DOUBLE, 0.05,
+             'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
+             'does not explain before the force axis is held in position, m; .inf = off', '> 0'),
+        Spec('contact_max_speed', T.DOUBLE, 0.5,
+             'lost-contact guard (force, hybrid): largest speed along a force axis before it is held in '
+             'position, m/s; .inf = off', '> 0'),
         Spec('publish_effort_array', T.BOOL, False,
              'also publish effort_controller/commands (std_msgs/Float64MultiArray, joints order)'),
         Spec('diagnostics_period', T.DOUBLE, 0.5, 'period of /diagnostics, s (wall clock)', '> 0'),
@@ -394,7 +400,8 @@ class ControllerParameters:
             joints=values['joints'] or None, force_axes=force_axes,
             k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
             posture_gains=(values['posture_kp'], values['posture_kv']),
-            move_time=values['move_time'], force_ramp_time=values['force_ramp_time'])
+            move_time=values['move_time'], force_ramp_time=values['force_ramp_time'],
+            contact_max_travel=values['contact_max_travel'], contact_max_speed=values['contact_max_speed'])
 
     def _joint_inertia(self, model):
         """diag M(q_nominal) (scenario start, else zeros): scales designed gains for independent_joint."""

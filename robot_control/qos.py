@@ -43,4 +43,20 @@ DIAGNOSTICS_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
-__all__ = ['CONTROL_QOS', 'REFERENCE_QOS', 'DIAGNOSTICS_QOS']
+#: Publishers of the loop's topics (joint_states, ft_sensor/wrench, robot_joint_commands, ~/reference,
+#: ~/error, /clock): as CONTROL_QOS / REFERENCE_QOS but with a deep writer history. A reliable writer
+#: can only repair a sample a reader missed while the sample is still in its history; with depth 1 an
+#: observer that falls behind under CPU load (a recorder, `ros2 bag record`, a plotter, the demo's
+#: collector) loses whole blocks of ticks for good. Subscribers in the loop keep depth 1 (newest
+#: only), so the loop's latency is unchanged.
+PUBLISHER_DEPTH = 1000
+CONTROL_PUB_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=PUBLISHER_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+REFERENCE_PUB_QOS = CONTROL_PUB_QOS
+
+__all__ = ['CONTROL_QOS', 'REFERENCE_QOS', 'DIAGNOSTICS_QOS', 'CONTROL_PUB_QOS', 'REFERENCE_PUB_QOS',
+           'PUBLISHER_DEPTH']

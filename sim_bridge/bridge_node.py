@@ -66,14 +66,14 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from robot_control import conversions, scenarios, spin
-from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS
+from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
 from sim_bridge import bridge_params
 from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
                                RealtimePacer, SourceGuard, Throttle, stamp_ns)
 
 NS = 1_000_000_000
 #: /clock: reliable (also serves rclpy's and rclcpp's best-effort clock subscriptions), newest only
-CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+CLOCK_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)  # deep: see qos.CONTROL_PUB_QOS
 COMMAND_TOPICS = ('robot_joint_commands', 'effort_controller/commands')
 WARN_PERIOD_NS = NS   # throttled warnings: at most one per second of wall time
 GRAPH_PERIOD = 0.1    # s of wall time between publisher counts on the command topics
@@ -171,8 +171,8 @@ class SimBridge(Node):
 
         # -- interfaces
         self._pub_clock = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
-        self._pub_js = self.create_publisher(JointState, 'joint_states', CONTROL_QOS)
-        self._pub_wrench = self.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_QOS)
+        self._pub_js = self.create_publisher(JointState, 'joint_states', CONTROL_PUB_QOS)
+        self._pub_wrench = self.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_PUB_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
         self._sub_js = self.create_subscription(JointState, COMMAND_TOPICS[0], self._on_joint_command,
                                                 CONTROL_QOS)
@@ -327,15 +327,15 @@ class SimBridge(Node):
             if verdict != LockstepGate.MATCH:
                 if verdict == LockstepGate.LATE:      # answered twice: a re-published state or a 2nd controller
                     self._refresh_publisher_counts()
-                self._guard.check(0, self._world.t_ns)
+                self._guard.check(0, self._world.t_ns, stamp_ns(stamp.sec, stamp.nanosec))
                 return
-            ok = self._guard.check(0, self._world.t_ns)
+            ok = self._guard.check(0, self._world.t_ns, stamp_ns(stamp.sec, stamp.nanosec))
             if self._paused:
                 self._pending = (msg, ok)
                 return
             self._lockstep_answer(self._mapper.map_named(msg.name, msg.effort), ok)
         else:
-            ok = self._guard.check(0, self._world.t_ns)
+            ok = self._guard.check(0, self._world.t_ns, stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec))
             reason = self._mapper.map_named(msg.name, msg.effort)
             if reason is None and ok:
                 self._deadline.command(stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec), time.monotonic_ns())
@@ -497,8 +497,12 @@ class SimBridge(Node):
 
     # -- diagnostics --------------------------------------------------------------------------
     def _refresh_publisher_counts(self):
+        # realtime: commands had come and stopped (stale): a publisher appearing now replaces a dead one
+        # (a SIGKILLed controller stays in the graph for its DDS lease) and is not refused as a second one
+        t = self._world.t_ns
+        silent = not self.cfg.lockstep and self._watchdog.last_ns is not None and self._watchdog.stale(t)
         for i, sub in enumerate(self._subs):
-            self._guard.set_count(i, self.count_publishers(sub.topic_name))
+            self._guard.set_count(i, self.count_publishers(sub.topic_name), silent=silent)
 
     def _publish_diagnostics(self):
         cfg, w = self.cfg, self._world

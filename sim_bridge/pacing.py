@@ -207,15 +207,25 @@ class SourceGuard:
     Evidence of mixing, checked per message in O(1):
     - a command on a topic that the ROS graph shows with more than one publisher (the counts are
       refreshed by the node: periodically and whenever a lockstep answer comes twice);
-    - commands on both command topics (JointState and Float64MultiArray) within `timeout_ns`.
+    - commands on both command topics (JointState and Float64MultiArray) within `timeout_ns`;
+    - stamped commands (JointState, `stamp_ns` given) whose stamp is not after the previous one's
+      while the graph shows more than one publisher (two sources answering the same states).
     While there is evidence the node holds the brakes; the conflict clears after `timeout_ns` of
     simulation time without new evidence.
+
+    A controller killed without a goodbye (SIGKILL, a crash) stays in the ROS graph for its DDS
+    participant lease (20 s with Fast DDS defaults). A publisher that appears while the commands
+    are silent (set_count(..., silent=True): no valid command for command_timeout after there had
+    been one) is a replacement, not a second source: up to that many publishers are tolerated
+    (`allowed`) until the count drops again, so a restarted controller resumes at once.
     """
 
     def __init__(self, timeout_ns, topics):
         self.timeout_ns = int(timeout_ns)
         self.topics = tuple(topics)
         self.counts = [0] * len(self.topics)
+        self.allowed = [1] * len(self.topics)     # publishers tolerated (1 + presumed-dead replaced ones)
+        self.replacements = 0
         self.conflicts = 0
         self.reason = ''
         self._evidence_ns = None
@@ -224,11 +234,19 @@ class SourceGuard:
     def reset(self):
         """Forget message history (simulation time restarts); publisher counts are kept."""
         self._last_t = [None] * len(self.topics)
+        self._last_stamp = [None] * len(self.topics)
         self._evidence_ns = None
 
-    def set_count(self, topic, n):
-        """Number of publishers the graph shows on topic index `topic`."""
-        self.counts[topic] = int(n)
+    def set_count(self, topic, n, silent=False):
+        """Number of publishers the graph shows on topic index `topic`; `silent`: no command is coming in
+        (the previous source stopped), so a newly appeared publisher replaces it."""
+        n = int(n)
+        if silent and n > max(self.counts[topic], self.allowed[topic]):
+            self.allowed[topic] = n
+            self.replacements += 1
+        elif n < self.allowed[topic]:
+            self.allowed[topic] = max(1, n)
+        self.counts[topic] = n
 
     def in_conflict(self, t_ns):
         if self._evidence_ns is None:
@@ -244,12 +262,17 @@ class SourceGuard:
         self._evidence_ns = t_ns
         self.reason = reason
 
-    def check(self, topic, t_ns):
-        """Record a command on topic index `topic` at simulation time `t_ns`; True when it may be
-        applied, False while mixing is seen."""
+    def check(self, topic, t_ns, stamp_ns=None):
+        """Record a command on topic index `topic` at simulation time `t_ns` (header stamp `stamp_ns`,
+        None for unstamped messages); True when it may be applied, False while mixing is seen."""
         n = self.counts[topic]
-        if n > 1:
+        last = self._last_stamp[topic]
+        if stamp_ns is not None:
+            self._last_stamp[topic] = stamp_ns
+        if n > self.allowed[topic]:
             self._evidence(t_ns, f'{n} publishers on {self.topics[topic]}')
+        elif n > 1 and stamp_ns is not None and last is not None and stamp_ns <= last:
+            self._evidence(t_ns, f'{n} publishers on {self.topics[topic]} sending interleaved commands')
         for other, t_other in enumerate(self._last_t):
             if other != topic and t_other is not None and 0 <= t_ns - t_other <= self.timeout_ns:
                 self._evidence(t_ns, f'commands on both {self.topics[other]} and {self.topics[topic]}')

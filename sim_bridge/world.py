@@ -292,8 +292,14 @@ class World:
         normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
         radius = surfaces.tip_radius(self._client, self._body, self._tip)
         half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
-        return surfaces.Wall(self._client, spec.surface, normal, radius, self.tip_position(), spec.surface_damping,
+        wall = surfaces.Wall(self._client, spec.surface, normal, radius, self.tip_position(), spec.surface_damping,
                              half)
+        # The lecture's environment is a spring on the tip: only the tip's probe touches the surface.
+        # (The iiwa's wrist, lbr_iiwa_link_6, reaches the table top next to lbr_iiwa_link_7's origin.)
+        for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
+            if link != self._tip:
+                p.setCollisionFilterPair(self._body, wall.body, link, -1, 0, physicsClientId=self._client)
+        return wall
 
     def reset(self, q0=None):
         """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
