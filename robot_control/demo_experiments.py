@@ -1,0 +1,353 @@
+"""The demo's experiments: for each scenario a sensible one, and the lecture's experiments of
+issue 5 (disturbance rejection, model error, computed torque vs independent joint, ...).
+
+An Experiment is data: which scenario (config/<scenario>.yaml), parameter overrides for the two
+nodes, the references the demo publishes, the run length and the windows the metrics use.
+All times are simulation seconds after the run's origin (the first control tick in lockstep).
+
+References reach the controller as ROS messages:
+- `trajectory`: one trajectory_msgs/JointTrajectory on /controller/joint_trajectory whose
+  header.stamp is origin + t_start (the controller starts it exactly then, so lockstep runs are
+  repeatable). A step is a one-point trajectory reaching its goal in one control period: the
+  controller samples it only at the ticks, so it sees the goal at rest one period later.
+- `force`: the initial force reference, the controller parameter f_d with force_ramp_time.
+- `force_events`: later force references, geometry_msgs/WrenchStamped on
+  /controller/wrench_reference sent when the simulation reaches their time. The controller
+  applies a wrench reference on receipt (it has no scheduled start), so in lockstep their
+  instant may vary by a few ticks between runs; the tests' runs do not use them.
+"""
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robot_control import scenarios
+
+#: position unit of each joint of each scenario ('rad' revolute, 'm' prismatic)
+JOINT_UNITS = {
+    'mass_spring_cubic': ('m',),
+    'single_link': ('rad',),
+    'polar_two_link': ('rad', 'm'),
+    'planar_two_link': ('rad', 'rad'),
+    'force_1dof': ('m',),
+    'hybrid_cartesian_xy': ('m', 'm'),
+    'hybrid_cartesian_xyz': ('m', 'm', 'm'),
+    'iiwa': ('rad',) * 7,
+}
+
+CONTROL_PERIOD = 0.001   # s, the configs' control_period: a step reaches its goal in one period
+
+
+@dataclass(frozen=True)
+class TrajectorySpec:
+    """A JointTrajectory in the scenario's joint order: points at t_start + times (s)."""
+
+    t_start: float
+    times: tuple                      # time_from_start of each point, s, > 0, increasing
+    positions: tuple                  # (k, n)
+    velocities: tuple = None          # (k, n) or None
+    accelerations: tuple = None       # (k, n) or None
+
+    @property
+    def t_end(self):
+        return self.t_start + self.times[-1]
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    scenario: str
+    title: str
+    duration: float                           # s of simulation after the origin (default run length)
+    law: str = 'computed_torque'
+    controller: dict = field(default_factory=dict)   # controller parameter overrides
+    bridge: dict = field(default_factory=dict)       # sim_bridge parameter overrides
+    trajectory: TrajectorySpec = None
+    force: tuple = None                       # initial f_d per force axis, N (controller parameter)
+    force_events: tuple = ()                  # ((t, (f per force axis)), ...) wrench references
+    settle_from: float = 0.0                  # s: start of the change the settling time refers to
+    force_window: object = 0.0                # s: force metrics use t >= force_window ("after settling"),
+                                              # or ((t0, t1), ...): the union of these intervals
+    steady_window: float = 0.25               # s: the final window of the steady-state error
+    notes: str = ''
+
+    @property
+    def joints(self):
+        return scenarios.get(self.scenario).joints
+
+    @property
+    def units(self):
+        return JOINT_UNITS[self.scenario]
+
+    def with_duration(self, duration):
+        import dataclasses
+        return dataclasses.replace(self, duration=float(duration))
+
+
+# -- reference builders ------------------------------------------------------------------------
+def step(q_goal, t_start, back_to=None, t_back=None):
+    """A step to q_goal at t_start (reached one control period later), optionally back at t_back."""
+    dt = CONTROL_PERIOD
+    times, pos = [dt], [tuple(q_goal)]
+    if back_to is not None:
+        times += [t_back - t_start, t_back - t_start + dt]
+        pos += [tuple(q_goal), tuple(back_to)]
+    zeros = tuple(tuple(0.0 for _ in q_goal) for _ in times)
+    return TrajectorySpec(t_start, tuple(times), tuple(pos), zeros, zeros)
+
+
+def sampled(fn, t_start, t_end, dt=0.02):
+    """Points every dt of fn(tau) -> (q, qd, qdd) for tau = t - t_start in (0, t_end - t_start]."""
+    k = int(round((t_end - t_start) / dt))
+    taus = [dt * (i + 1) for i in range(k)]
+    pts = [fn(tau) for tau in taus]
+    return TrajectorySpec(t_start, tuple(taus), tuple(tuple(map(float, p[0])) for p in pts),
+                          tuple(tuple(map(float, p[1])) for p in pts),
+                          tuple(tuple(map(float, p[2])) for p in pts))
+
+
+def raised_cosine(q_start, amplitude, freq):
+    """tau -> q_start + amplitude (1 - cos(2 pi freq tau)) / 2 ... starts at rest (zero velocity)."""
+    q0, a = np.asarray(q_start, float), np.asarray(amplitude, float)
+    w = 2.0 * math.pi * freq
+
+    def fn(tau):
+        return (q0 + 0.5 * a * (1.0 - math.cos(w * tau)), 0.5 * a * w * math.sin(w * tau),
+                0.5 * a * w * w * math.cos(w * tau))
+    return fn
+
+
+# -- iiwa: joint positions for Cartesian targets ---------------------------------------------------
+IIWA_POSTURE = (0.0, 0.7, 0.0, -1.6, 0.0, 0.68, 0.0)   # rad, tool (link 7) pointing straight down
+IIWA_TABLE = (0.55, -0.05)                              # m, start of the line drawn on the table (x, y)
+IIWA_LINE = 0.10                                        # m, length of the line along +y
+
+
+def iiwa_model():
+    from robot_control import models
+    return models.for_scenario(scenarios.get('iiwa'))
+
+
+def iiwa_ik(model, p, q_init, q_posture=IIWA_POSTURE, tol=1e-12, iters=200):
+    """Joint positions (7,) putting the tip at p (3,), m: damped least squares with a null-space pull
+    toward q_posture (the redundancy resolution the hybrid law's posture term also uses)."""
+    q = np.array(q_init, dtype=float)
+    q_nom = np.asarray(q_posture, dtype=float)
+    p = np.asarray(p, dtype=float)
+    eye = np.eye(model.n)
+    for _ in range(iters):
+        err = p - model.fk(q)
+        if np.linalg.norm(err) < tol:
+            break
+        J = model.J(q)
+        Jp = J.T @ np.linalg.inv(J @ J.T + 1e-10 * np.eye(J.shape[0]))
+        q = q + Jp @ err + (eye - Jp @ J) @ (0.5 * (q_nom - q))
+    if np.linalg.norm(p - model.fk(q)) > 1e-9:
+        raise ValueError(f'p: no joint solution found for tip position {p.tolist()}')
+    return q
+
+
+def iiwa_line(t_start, T, z, dt=0.05, model=None):
+    """A JointTrajectory drawing IIWA_LINE along +y at height z from IIWA_TABLE in T s (quintic timing),
+    every point an IK solution (positions, velocities J+ xd, accelerations by differentiation)."""
+    model = model or iiwa_model()
+    x0, y0 = IIWA_TABLE
+    k = int(round(T / dt))
+    taus = np.array([dt * (i + 1) for i in range(k)])
+    s = taus / T
+    y = y0 + IIWA_LINE * (10 * s**3 - 15 * s**4 + 6 * s**5)
+    q = iiwa_ik(model, (x0, y0, z), IIWA_POSTURE)
+    pos = []
+    for yi in y:
+        q = iiwa_ik(model, (x0, yi, z), q)
+        pos.append(q.copy())
+    return TrajectorySpec(t_start, tuple(float(t) for t in taus), tuple(tuple(map(float, p)) for p in pos))
+
+
+def iiwa_start(z):
+    """Joint positions with the tip at the start of the line, height z (m)."""
+    model = iiwa_model()
+    return tuple(float(v) for v in iiwa_ik(model, (*IIWA_TABLE, z), IIWA_POSTURE))
+
+
+# -- the experiments -------------------------------------------------------------------------------
+def _polar_step():
+    q0 = scenarios.get('polar_two_link').q0
+    goal = (0.5, 0.7)
+    return Experiment(
+        'polar_step', 'polar_two_link',
+        'lecture example: PD computed torque, m = 2 kg, kp = 36, kv = 12; step from rest',
+        duration=4.0, trajectory=step(goal, 0.5, back_to=q0, t_back=2.5), settle_from=2.5,
+        notes='error must follow e(t) = e0 (1 + 6 t) exp(-6 t)')
+
+
+def _planar(law):
+    q0 = np.array(scenarios.get('planar_two_link').q0)
+    traj = sampled(raised_cosine(q0, (1.2, -1.0), 1.0), 0.2, 2.2)
+    name = 'planar_fast_path' if law == 'computed_torque' else 'planar_independent_joint'
+    what = 'PD computed torque' if law == 'computed_torque' else 'independent-joint PD, same design (kp = w_n^2 M_ii(q0))'
+    return Experiment(name, 'planar_two_link', f'fast path (1 Hz, 1.2 / 1.0 rad, up to 3.8 rad/s): {what}', duration=2.5, law=law,
+                      controller={'law': law}, trajectory=traj, settle_from=2.2)
+
+
+def _single_link_step():
+    return Experiment('single_link_step', 'single_link', 'PD computed torque, step 0 -> 0.8 rad against gravity',
+                      duration=3.0, trajectory=step((0.8,), 0.5), settle_from=0.5)
+
+
+def _mass_spring_sine():
+    fn = raised_cosine((0.0,), (0.4,), 0.5)
+    return Experiment('mass_spring_sine', 'mass_spring_cubic',
+                      'partitioned law alpha = m, beta = b xd + k x^3; x_d = 0.2 (1 - cos(pi t)) m',
+                      duration=4.0, trajectory=sampled(fn, 0.2, 4.2), settle_from=None)
+
+
+D_DISTURBANCE = 2.0   # N, the lecture's d (m xdd + b xd + k x^3 + d = u)
+
+
+def _disturbance(integral):
+    name = 'disturbance_pid' if integral else 'disturbance_pd'
+    law = 'PID' if integral else 'PD'
+    return Experiment(
+        name, 'mass_spring_cubic',
+        f'constant disturbance d = {D_DISTURBANCE:g} N, {law} partitioned law, holding x_d = 0',
+        duration=3.0, controller={'integral': integral},
+        bridge={'disturbance.joint_torque': [-D_DISTURBANCE]}, settle_from=0.0,
+        notes='PD: e_ss = d / (m kp); PID: e_ss -> 0')
+
+
+MODEL_ERROR = 1.2     # simulated mass / the controller's
+
+
+def _model_error(integral):
+    name = 'model_error_pid' if integral else 'model_error_pd'
+    law = 'PID' if integral else 'PD'
+    m = scenarios.get('polar_two_link').params['m']
+    return Experiment(
+        name, 'polar_two_link',
+        f'model error: robot m = {m * MODEL_ERROR:g} kg, controller m = {m:g} kg; {law} computed torque, holding',
+        duration=3.0, controller={'integral': integral},
+        bridge={'sim_params.m': m * MODEL_ERROR, 'initial_positions': [0.5, 0.5]}, settle_from=0.0)
+
+
+def _force_steps():
+    return Experiment(
+        'force_steps', 'force_1dof', 'force servo, k_e = 1000 N/m: steps 0 -> 10 -> 5 -> 15 N from contact at rest',
+        duration=6.0, law='force', controller={'force_ramp_time': 0.0}, bridge={'initial_positions': [0.1]},
+        force=(10.0,), force_events=((2.0, (5.0,)), (4.0, (15.0,))), settle_from=0.0,
+        force_window=((1.5, 2.0), (3.5, 4.0), (5.5, 6.0)),   # the last 0.5 s before each next step
+        notes='force error must follow e_f(t) = f_d (1 + 6 t) exp(-6 t)')
+
+
+def _hybrid_xy():
+    fn = raised_cosine((0.3, 0.0), (0.0, 0.1), 0.5)
+    return Experiment(
+        'hybrid_xy_wall', 'hybrid_cartesian_xy',
+        'hybrid: 10 N on the wall along x (approach from 1 cm), y follows 0.05 (1 - cos(pi t)) m',
+        duration=5.0, law='hybrid', controller={'law': 'hybrid'}, force=(10.0,),
+        trajectory=sampled(fn, 0.5, 5.0), settle_from=None, force_window=2.0)
+
+
+def _hybrid_xyz():
+    r = 0.05
+    w = 2.0 * math.pi * 0.5
+    ramp = 0.5
+
+    def fn(tau):
+        # circle in the x-z plane; the angular rate ramps up 0 -> w over `ramp` s (quintic smoothstep)
+        if tau < ramp:
+            s = tau / ramp
+            th = w * ramp * (2.5 * s**4 - 3.0 * s**5 + s**6)
+            thd = w * (10 * s**3 - 15 * s**4 + 6 * s**5)
+            thdd = w * (30 * s**2 - 60 * s**3 + 30 * s**4) / ramp
+        else:
+            th = w * ramp * 0.5 + w * (tau - ramp)
+            thd, thdd = w, 0.0
+        x, z = r * math.sin(th), r * (1.0 - math.cos(th))
+        xd, zd = r * math.cos(th) * thd, r * math.sin(th) * thd
+        xdd = -r * math.sin(th) * thd**2 + r * math.cos(th) * thdd
+        zdd = r * math.cos(th) * thd**2 + r * math.sin(th) * thdd
+        return (x, 0.3, z), (xd, 0.0, zd), (xdd, 0.0, zdd)
+    return Experiment(
+        'hybrid_xyz_circle', 'hybrid_cartesian_xyz',
+        'hybrid: 10 N on the surface along y, x-z draw a 5 cm circle at 0.5 Hz',
+        duration=5.0, law='hybrid', controller={'law': 'hybrid'}, force=(10.0,),
+        trajectory=sampled(fn, 0.5, 5.0), settle_from=None, force_window=2.0)
+
+
+IIWA_Z = 0.25     # m, the table top (scenario surface x_e)
+
+
+def _iiwa_ptp():
+    q0 = np.array(IIWA_POSTURE)
+    goal = q0 + np.array([0.6, -0.3, 0.4, 0.3, -0.5, 0.4, 0.8])
+    traj = TrajectorySpec(0.2, (2.0,), (tuple(map(float, goal)),))
+    return Experiment(
+        'iiwa_ptp', 'iiwa', 'KUKA iiwa, joint-space PD computed torque (Pinocchio model): quintic point-to-point in 2 s',
+        duration=3.0, bridge={'initial_positions': list(IIWA_POSTURE), 'surface.enable': False},
+        trajectory=traj, settle_from=0.2)
+
+
+def _iiwa_hybrid_line():
+    return Experiment(
+        'iiwa_hybrid_line', 'iiwa',
+        'KUKA iiwa, operational-space hybrid control: 10 N down on the table, drawing a 10 cm line in 2 s',
+        duration=3.5, law='hybrid', controller={'law': 'hybrid'},
+        bridge={'initial_positions': list(iiwa_start(IIWA_Z))}, force=(-10.0,),
+        trajectory=None, settle_from=None, force_window=1.2, notes='trajectory built lazily (IK)')
+
+
+_BUILDERS = {
+    'polar_step': _polar_step,
+    'planar_fast_path': lambda: _planar('computed_torque'),
+    'planar_independent_joint': lambda: _planar('independent_joint'),
+    'single_link_step': _single_link_step,
+    'mass_spring_sine': _mass_spring_sine,
+    'disturbance_pd': lambda: _disturbance(False),
+    'disturbance_pid': lambda: _disturbance(True),
+    'model_error_pd': lambda: _model_error(False),
+    'model_error_pid': lambda: _model_error(True),
+    'force_steps': _force_steps,
+    'hybrid_xy_wall': _hybrid_xy,
+    'hybrid_xyz_circle': _hybrid_xyz,
+    'iiwa_ptp': _iiwa_ptp,
+    'iiwa_hybrid_line': _iiwa_hybrid_line,
+}
+
+#: the experiment `--scenario NAME` runs
+DEFAULT_FOR_SCENARIO = {
+    'polar_two_link': 'polar_step',
+    'planar_two_link': 'planar_fast_path',
+    'single_link': 'single_link_step',
+    'mass_spring_cubic': 'mass_spring_sine',
+    'force_1dof': 'force_steps',
+    'hybrid_cartesian_xy': 'hybrid_xy_wall',
+    'hybrid_cartesian_xyz': 'hybrid_xyz_circle',
+    'iiwa': 'iiwa_hybrid_line',
+}
+
+EXPERIMENTS = tuple(_BUILDERS)
+
+
+def output_name(name):
+    """Directory name of an experiment's outputs: the scenario's name for its default experiment
+    (out/demo/polar_two_link), the experiment's own name otherwise (out/demo/disturbance_pid)."""
+    key = DEFAULT_FOR_SCENARIO.get(name, name)
+    for scenario, default in DEFAULT_FOR_SCENARIO.items():
+        if default == key:
+            return scenario
+    return key
+
+
+def get(name):
+    """The Experiment called `name` (an experiment or a scenario name), or ValueError listing them."""
+    key = DEFAULT_FOR_SCENARIO.get(name, name)
+    try:
+        exp = _BUILDERS[key]()
+    except KeyError:
+        raise ValueError(f'experiment: unknown {name!r}; expected a scenario {sorted(DEFAULT_FOR_SCENARIO)} '
+                         f'or an experiment {list(EXPERIMENTS)}') from None
+    if key == 'iiwa_hybrid_line':
+        import dataclasses
+        exp = dataclasses.replace(exp, trajectory=iiwa_line(1.0, 2.0, IIWA_Z))
+    return exp
