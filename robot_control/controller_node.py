@@ -122,8 +122,6 @@ class ControllerNode(Node):
         self._error_msg = JointState()
         self._f_meas = np.zeros(len(self._task_axes))
         self._wrench_seen = False
-        self._wrench_stamp_ns = None    # header.stamp of the wrench in _f_meas (None: none yet)
-        self._held_state = None         # a joint_states waiting for the wrench of its stamp
         self._epoch_ns = None
         self._last_state_ns = None      # node clock at the last valid joint_states
         self._last_state_steady_ns = None   # steady clock at the last valid joint_states
@@ -185,22 +183,7 @@ class ControllerNode(Node):
 
     # -- state -> command ------------------------------------------------------------------------
     def _on_joint_states(self, msg):
-        """Answer a state; with sensor force feedback, with the wrench of the same stamp.
-
-        The bridge publishes ft_sensor/wrench and joint_states with the same stamp on two topics. A
-        state whose wrench has not arrived yet is held until it does, or until the next state (in
-        lockstep: the bridge's re-publication after lockstep_timeout), which first answers the held one
-        with the newest wrench. The command then never depends on which of the two messages the
-        executor took first, from the first tick on: lockstep runs stay bit-identical. A sensor that
-        publishes unstamped wrenches (stamp 0) keeps the newest-wins behaviour.
-        """
-        if self._ft_sub is not None and self._wrench_stamp_ns != 0:
-            stamp = conversions.stamp_to_ns(msg.header.stamp)
-            if stamp and stamp != self._wrench_stamp_ns:
-                held, self._held_state = self._held_state, msg
-                if held is not None:
-                    self._answer(held)
-                return
+        """Answer a state with the newest valid ft_sensor/wrench (see _answer)."""
         self._answer(msg)
 
     def _answer(self, msg):
@@ -268,11 +251,6 @@ class ControllerNode(Node):
             return
         self._f_meas[:] = f
         self._wrench_seen = True
-        self._wrench_stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
-        held = self._held_state
-        if held is not None and conversions.stamp_to_ns(held.header.stamp) == self._wrench_stamp_ns:
-            self._held_state = None
-            self._answer(held)
 
     def _time_of(self, stamp_ns):
         """A message stamp on the core's time base (None for a zero stamp = now)."""

@@ -739,7 +739,8 @@ def polar_rig():
 @pytest.fixture(scope='module')
 def hybrid_rig():
     """Hybrid PID on cartesian_xy pressing 5 N on the wall at x_e = 0.3 (x = 0.305 at rest, f = 5 N measured)."""
-    rig = ControllerRig(83, XY, [0.305, 0.0], dict(scenario='hybrid_cartesian_xy', law='hybrid', integral=True,
+    # a domain of its own: the polar and hybrid rigs both live for the whole module
+    rig = ControllerRig(91, XY, [0.305, 0.0], dict(scenario='hybrid_cartesian_xy', law='hybrid', integral=True,
                                                    f_d=[5.0], force_feedback='sensor', effort_limits=[200.0, 200.0],
                                                    diagnostics_period=5.0), f_hold=[5.0, 0.0, 0.0])
     yield rig
@@ -934,7 +935,7 @@ def command_rig():
 
 @pytest.fixture(scope='module')
 def array_rig():
-    rig = BridgeRig(84, 'effort_controller/commands')
+    rig = BridgeRig(92, 'effort_controller/commands')   # a domain of its own, as for the controller rigs
     yield rig
     rig.close()
 
