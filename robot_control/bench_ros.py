@@ -316,8 +316,19 @@ def realtime_metrics(states, commands, period_ns=PERIOD_NS):
             'latency_p99_ms': float(np.percentile(latency, 99)), 'rtf': float(rtf)}
 
 
+def _wait_for_commands(observer, timeout_s=30.0):
+    """Block until the controller answers (start-up, discovery, model loading), at most timeout_s."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        time.sleep(POLL_S)
+        if len(observer.take('robot_joint_commands')):
+            return
+    raise RuntimeError(f'realtime: no command within {timeout_s:g} s')
+
+
 def realtime_run(plan):
     def measure(observer, procs):
+        _wait_for_commands(observer)        # measure the running loop, not its start-up
         time.sleep(plan.dds_warmup_s)
         observer.drain()
         states, commands = [], []
