@@ -195,13 +195,7 @@ class SimBridge(Node):
         self._pending_cfg = None
 
         # -- first state
-        if not cfg.lockstep:
-            self._update_brakes(w.t_ns, log=False)
-            now = time.monotonic_ns()
-            self._pacer.anchor(now, 0)
-            self._rate.reset(now, w.t_ns)
-        self._gate.expect(w.t_ns)
-        self._publish_state()
+        self._restart_loop(cfg, w)
         self.get_logger().info(
             f'{cfg.scenario or cfg.urdf}: {n} joints {list(self.joint_names)}, {cfg.mode}, physics step '
             f'{cfg.physics_step} s, control period {cfg.control_period} s'
@@ -483,13 +477,7 @@ class SimBridge(Node):
         self._guard.reset()
         # the rebuilt world has no brakes; put them back as the loop expects
         self._brake_reason = ''
-        if not cfg.lockstep:
-            self._update_brakes(w.t_ns, log=False)
-            now = time.monotonic_ns()
-            self._pacer.anchor(now, 0)
-            self._rate.reset(now, w.t_ns)
-        self._gate.expect(w.t_ns)
-        self._publish_state()
+        self._restart_loop(cfg, w)
         response.success = True
         response.message = f'world rebuilt, t = {w.t_ns / NS:.3f} s'
         self.get_logger().info(response.message)
@@ -586,6 +574,16 @@ class SimBridge(Node):
     @property
     def rejected(self):
         return dict(self._mapper.rejected)
+
+    def _restart_loop(self, cfg, w):
+        """Start pacing from the world's current time and publish its first state (start-up, reset)."""
+        if not cfg.lockstep:
+            self._update_brakes(w.t_ns, log=False)
+            now = time.monotonic_ns()
+            self._pacer.anchor(now, 0)
+            self._rate.reset(now, w.t_ns)
+        self._gate.expect(w.t_ns)
+        self._publish_state()
 
     def destroy_node(self):
         world, self._world = self._world, None
