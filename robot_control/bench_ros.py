@@ -316,19 +316,23 @@ def realtime_metrics(states, commands, period_ns=PERIOD_NS):
             'latency_p99_ms': float(np.percentile(latency, 99)), 'rtf': float(rtf)}
 
 
-def _wait_for_commands(observer, timeout_s=30.0):
-    """Block until the controller answers (start-up, discovery, model loading), at most timeout_s."""
+def _wait_for_loop(observer, timeout_s=30.0):
+    """Block until the observer receives both states and commands, at most timeout_s: the controller
+    answers (start-up, discovery, model loading) and the observer has matched both writers (DDS
+    discovers each writer on its own, sometimes seconds apart)."""
     deadline = time.monotonic() + timeout_s
+    seen = set()
     while time.monotonic() < deadline:
         time.sleep(POLL_S)
-        if len(observer.take('robot_joint_commands')):
+        seen.update(t for t in observer.TOPICS if len(observer.take(t)))
+        if len(seen) == len(observer.TOPICS):
             return
-    raise RuntimeError(f'realtime: no command within {timeout_s:g} s')
+    raise RuntimeError(f'realtime: no {" and no ".join(sorted(set(observer.TOPICS) - seen))} within {timeout_s:g} s')
 
 
 def realtime_run(plan):
     def measure(observer, procs):
-        _wait_for_commands(observer)        # measure the running loop, not its start-up
+        _wait_for_loop(observer)            # measure the running loop, not its start-up
         time.sleep(plan.dds_warmup_s)
         observer.drain()
         states, commands = [], []

@@ -49,6 +49,11 @@ ROOT = Path(__file__).resolve().parent.parent
 BRIDGE_ARGS = ()
 STARTUP_TIMEOUT = 60.0    # s of wall time for a node to come up (Pinocchio/PyBullet imports)
 STALL_TIMEOUT = 20.0      # s of wall time without simulation progress -> error
+#: s of wall time to wait for the run's last tick. A sample the collector missed (its process starved of
+#: CPU) is re-sent only after the writer's next heartbeat, every 3 s in Fast DDS, and the reliable reader
+#: holds every later sample until then: waiting longer than a heartbeat period turns a "lost" tail
+#: into a complete run (see robot_control.qos.PUBLISHER_DEPTH).
+REPAIR_TIMEOUT = 8.0
 CONFIRM_TIMEOUT = 10.0    # s for the controller to confirm a reference
 
 
@@ -251,14 +256,13 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
                     and control.traj_pub.get_subscription_count() > 0
                     and control.subscribed('/joint_states', 'controller'))
         control.spin_until(connected, STARTUP_TIMEOUT, alive, 'the controller to connect')
-        control.pause(False, poll=alive)
+        # the paused bridge re-publishes its state every 0.1 s: the controller answers while the world stands still
         control.spin_until(lambda: collector.count('/robot_joint_commands') > 0, STARTUP_TIMEOUT, alive,
                            'the first command')
-        control.pause(True, poll=alive)
         if mode == 'lockstep':
             origin_ns = 0   # the bridge steps only once the command for t = 0 has arrived
         else:
-            # physics ran (braked) before the controller answered, and until the pause: start 50 ms on
+            # physics ran (braked) from the bridge's start until the pause: start 50 ms on
             origin_ns = (collector.last_stamp_ns() or 0) + NS // 20
         # -- references, stamped on the simulation clock, confirmed by the controller
         mark = len(control.log)
@@ -307,7 +311,7 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
             return all(collector.last_stamp_ns(t) is not None and collector.last_stamp_ns(t) >= end_ns
                        for t in ('/controller/reference', '/controller/error', '/joint_states'))
         try:
-            control.spin_until(tick_complete, 2.0, alive, 'the last tick')
+            control.spin_until(tick_complete, REPAIR_TIMEOUT, alive, 'the last tick')
         except TimeoutError:
             pass  # reported as lost messages
         limits, _ = demo_ros.controller_diagnostics(collector)

@@ -25,7 +25,7 @@ from trajectory_msgs.msg import JointTrajectory
 from robot_control import conversions
 from robot_control.qos import REFERENCE_QOS
 
-DEPTH = 1000
+DEPTH = 10000
 COLLECT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
 ROSOUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,

@@ -195,7 +195,7 @@ class Recorder:
     """
 
     def __init__(self, node, bag_dir, topics=(), *, all_topics=False, exclude=None, discovery_timeout=5.0,
-                 discovery_period=0.1, storage=DEFAULT_STORAGE, depth=1000, burst=256, overwrite=False,
+                 discovery_period=0.1, storage=DEFAULT_STORAGE, depth=10000, burst=256, overwrite=False,
                  typestore=None):
         if storage not in STORAGES:
             raise ValueError(f'storage: expected one of {sorted(STORAGES)}, got {storage!r}')

@@ -6,7 +6,10 @@ velocity, effort = the torque actually applied; header.stamp = simulation time),
 surface, world axes, frame `wrench_frame_id`) and `/diagnostics`. Subscribes
 `robot_joint_commands` (sensor_msgs/JointState, names + efforts, joints matched by name) and
 `effort_controller/commands` (std_msgs/Float64MultiArray in `joints` order). Services
-`~/reset` (std_srvs/Trigger) and `~/pause` (std_srvs/SetBool).
+`~/reset` (std_srvs/Trigger) and `~/pause` (std_srvs/SetBool). While paused, physics and
+/clock stand still and the unchanged state is re-published every 0.1 s of wall time, so a
+controller sees a live robot (its watchdog does not trip) and may be configured or given a
+trajectory before the resume; in lockstep its first answer is applied on resume.
 
 Pacing (parameter `mode`):
 - lockstep: the state of tick k is published at t_k; the command stamped t_k (a
@@ -77,6 +80,7 @@ CLOCK_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)  # de
 COMMAND_TOPICS = ('robot_joint_commands', 'effort_controller/commands')
 WARN_PERIOD_NS = NS   # throttled warnings: at most one per second of wall time
 GRAPH_PERIOD = 0.1    # s of wall time between publisher counts on the command topics
+PAUSED_STATE_PERIOD = 0.1   # s of wall time between re-published states while paused
 
 _TYPES = {'bool': Parameter.Type.BOOL, 'double': Parameter.Type.DOUBLE, 'string': Parameter.Type.STRING,
           'double_array': Parameter.Type.DOUBLE_ARRAY, 'string_array': Parameter.Type.STRING_ARRAY}
@@ -405,6 +409,8 @@ class SimBridge(Node):
         self._brake_reason = reason
         on = bool(reason)
         if on == was:
+            if on and log and self._brake_throttle.ready(time.monotonic_ns()):
+                self.get_logger().warning(f'brakes stay engaged at t = {self._world.t_ns / NS:.3f} s: {reason}')
             return
         self._world.brake(on)
         if not on:
@@ -420,6 +426,7 @@ class SimBridge(Node):
     # -- pacing -------------------------------------------------------------------------------
     def _on_realtime_timer(self):
         if self._paused:
+            self._heartbeat()
             return
         due = self._pacer.due(time.monotonic_ns(), self._ticks)
         w = self._world
@@ -432,9 +439,18 @@ class SimBridge(Node):
 
     def _on_lockstep_timer(self):
         if self._paused:
-            return
-        if time.monotonic_ns() - self._wall_last_pub >= self.cfg.lockstep_timeout * NS:
+            self._heartbeat()
+        elif time.monotonic_ns() - self._wall_last_pub >= self.cfg.lockstep_timeout * NS:
             self._republished += 1
+            self._publish_state()
+
+    def _heartbeat(self):
+        """Paused: re-publish the unchanged state every PAUSED_STATE_PERIOD of wall time.
+
+        A paused robot is a live robot standing still: the controller keeps answering (in lockstep
+        the first answer is kept for the resume) and its wall-clock watchdog does not trip.
+        """
+        if time.monotonic_ns() - self._wall_last_pub >= PAUSED_STATE_PERIOD * NS:
             self._publish_state()
 
     # -- services -----------------------------------------------------------------------------

@@ -140,8 +140,10 @@ def test_pause_and_reset_in_lockstep(harness):
     assert h.pause(True).success and h.bridge.paused
     t_paused = h.bridge.world.t_ns
     n_states = len(h.probe.states)
-    h.spin_for(0.15)
-    assert h.bridge.world.t_ns == t_paused and len(h.probe.states) == n_states
+    h.spin_for(0.35)
+    assert h.bridge.world.t_ns == t_paused
+    held = h.probe.states[n_states:]            # re-published every 0.1 s: a live robot standing still
+    assert 2 <= len(held) <= 5 and {s[0] for s in held} == {t_paused}
     assert h.pause(False).success
     assert h.spin_until(lambda: h.bridge.world.t_ns >= t_paused + 20 * MS)
     moved = h.probe.states[-1][2]
@@ -161,8 +163,11 @@ def test_pause_freezes_the_clock_in_realtime(harness):
     assert h.spin_until(lambda: h.probe.clock and h.probe.clock[-1] >= 50 * MS)
     assert h.pause(True).success
     t_paused = h.bridge.world.t_ns
-    h.spin_for(0.1)
+    n_states = len(h.probe.states)
+    h.spin_for(0.35)
     assert h.bridge.world.t_ns == t_paused
+    held = h.probe.states[n_states:]
+    assert 2 <= len(held) <= 5 and {s[0] for s in held} <= {t_paused - MS, t_paused}
     assert h.pause(False).success
     assert h.spin_until(lambda: h.probe.clock[-1] >= t_paused + 30 * MS)
 

@@ -494,14 +494,17 @@ def test_controller_sigkill_brakes_within_the_timeout_and_a_restarted_controller
         assert call_pause(ex, mon.node, True), 'the bridge did not pause'
         mon.watch('joint_states')
         n_states = len(mon.states)
+        t_start = time.monotonic()
         procs.append(rh.controller(dom, LOG_DIR, **ctrl_params))
-        assert spin_until(ex, lambda: mon.node.count_publishers('/robot_joint_commands') >= 1, 40.0)
-        t_found = time.monotonic()
-        spin_until(ex, lambda: time.monotonic() > t_found + 0.3, 1.0)      # matching with the bridge
+        # the paused bridge re-publishes its state every 0.1 s: the new controller answers it before the resume
+        # (the graph may still list the killed controller's publisher, so a publisher count proves nothing)
+        assert spin_until(ex, lambda: any(c[1] > t_start for c in mon.commands), 40.0), \
+            'the restarted controller did not answer the paused bridge'
         assert call_pause(ex, mon.node, False), 'the bridge did not resume'
         released = lambda: first_diag(mon, _released, t_e)                 # noqa: E731
-        assert spin_until(ex, lambda: released() is not None, 5.0), \
-            'the brakes were not released for the restarted controller within 5 s (refused as a second publisher?)'
+        # released once the killed controller's publisher has left the ROS graph (DDS notices within seconds)
+        assert spin_until(ex, lambda: released() is not None, 15.0), \
+            'the brakes were not released for the restarted controller within 15 s (refused as a second publisher?)'
         assert spin_until(ex, lambda: mon.states[-1][0] >= released()[0] + 0.3 * NS, 10.0)
         t_rel = released()[0]
         states = mon.states[n_states:]
