@@ -67,6 +67,9 @@ from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REF
 
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
+#: s of wall time a state waits for the wrench of its own tick (paired streams only, see _take_wrenches)
+WRENCH_WAIT = 0.005
+WRENCH_POLL = 0.0001
 #: smallest watchdog check period, s
 MIN_WATCHDOG_PERIOD = 0.001
 #: throttle of the warnings about rejected input, s
@@ -122,6 +125,7 @@ class ControllerNode(Node):
         self._error_msg = JointState()
         self._f_meas = np.zeros(len(self._task_axes))
         self._wrench_seen = False
+        self._wrench_stamp_ns = None    # header.stamp of the last valid ft_sensor/wrench
         self._epoch_ns = None
         self._last_state_ns = None      # node clock at the last valid joint_states
         self._last_state_steady_ns = None   # steady clock at the last valid joint_states
@@ -183,8 +187,38 @@ class ControllerNode(Node):
 
     # -- state -> command ------------------------------------------------------------------------
     def _on_joint_states(self, msg):
-        """Answer a state with the newest valid ft_sensor/wrench (see _answer)."""
+        """Answer a state with the newest valid ft_sensor/wrench (see _take_wrenches, _answer)."""
+        if self._ft_sub is not None:
+            self._take_wrenches(conversions.stamp_to_ns(msg.header.stamp))
         self._answer(msg)
+
+    def _take_wrenches(self, stamp_ns):
+        """Bring the measured force up to the state stamped `stamp_ns` before it is answered.
+
+        The bridge publishes a tick's wrench, then its state, both stamped t_k; they reach this
+        process through two DDS readers, and under load the state can be handled first. So the
+        waiting wrenches are taken here, and while the wrench stream is paired with the states (the
+        previous state's stamp equals the newest wrench's), the tick's own wrench is waited for, at
+        most WRENCH_WAIT s: every answer then uses the force of its own tick and lockstep runs repeat
+        bit for bit. An unstamped, unpaired or silent wrench stream is never waited for.
+        """
+        self._drain_wrenches()
+        last = self._last_stamp_ns
+        if last is None or self._wrench_stamp_ns != last or stamp_ns <= last:
+            return
+        deadline = time.monotonic() + WRENCH_WAIT
+        while self._wrench_stamp_ns < stamp_ns and time.monotonic() < deadline:
+            time.sleep(WRENCH_POLL)
+            self._drain_wrenches()
+
+    def _drain_wrenches(self):
+        sub = self._ft_sub
+        with sub.handle:
+            while True:
+                taken = sub.handle.take_message(WrenchStamped, False)
+                if taken is None:
+                    return
+                self._on_ft_sensor(taken[0])
 
     def _answer(self, msg):
         t_in = time.perf_counter_ns()
@@ -251,6 +285,7 @@ class ControllerNode(Node):
             return
         self._f_meas[:] = f
         self._wrench_seen = True
+        self._wrench_stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
 
     def _time_of(self, stamp_ns):
         """A message stamp on the core's time base (None for a zero stamp = now)."""
@@ -410,6 +445,7 @@ class ControllerNode(Node):
         if needed and self._ft_sub is None:
             self._f_meas[:] = 0.0
             self._wrench_seen = False
+            self._wrench_stamp_ns = None
             self._ft_sub = self.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor,
                                                     CONTROL_QOS)
         elif not needed and self._ft_sub is not None:

@@ -321,6 +321,80 @@ def test_wrench_reference_sets_the_force_target(ros_context):
         assert ref[0] == ('x',) and ref[1].tolist() == [7.5]
 
 
+
+def test_each_state_is_answered_with_the_wrench_published_before_it(ros_context):
+    """The bridge publishes a tick's wrench, then its state. Switching force_feedback to sensor at run
+    time subscribes ft_sensor/wrench after joint_states, so an executor that finds both waiting runs the
+    state's callback first: the answer must still use the wrench of its own tick, not the previous one."""
+    params, joints, q0, make_expected, _ = LAW_CASES['hybrid_sensor']
+    expected_law = make_expected(False)
+    with rig(ros_context, **dict(params, force_feedback='model')) as (ex, ctrl, robot):
+        assert ctrl.set_parameters([Parameter('force_feedback', value='sensor')])[0].successful
+        assert spin_until(ex, lambda: robot.ft_pub.get_subscription_count() >= 1)
+        for k in range(8):
+            f_k = [2.0 + 0.5 * k, 0.0]                       # a different force every tick
+            q = q0 + RNG.uniform(-2e-4, 2e-4, 2)
+            qd = RNG.uniform(-0.01, 0.01, 2)
+            stamp = T0_NS + k * DT_NS
+            robot.ft_pub.publish(cv.wrench_along(('x', 'y', 'z'), [*f_k, 0.0], stamp_ns=stamp))
+            robot.state_pub.publish(robot.state(joints, q, qd, stamp))
+            time.sleep(0.05)                                 # both arrive before the executor looks
+            assert spin_until(ex, lambda: all(stamp in s for s in (robot.commands, robot.references, robot.errors)))
+            cmd, ref, err = robot.commands[stamp], robot.references[stamp], robot.errors[stamp]
+            want = saturate(expected_law(q, qd, ref, err, np.array(f_k)), ctrl.core.config.effort_limit)[0]
+            np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12, err_msg=f'tick {k}')
+
+
+def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_never_is(ros_context):
+    """Once wrenches carry the stamps of the states (a tick answered with its own wrench), a state whose
+    wrench is still on its way waits for it (at most WRENCH_WAIT); a stream without those stamps does not."""
+    import threading
+    from robot_control.controller_node import WRENCH_WAIT
+    params, joints, q0, make_expected, _ = LAW_CASES['hybrid_sensor']
+    expected_law = make_expected(False)
+    with rig(ros_context, **params) as (ex, ctrl, robot):
+        assert spin_until(ex, lambda: robot.ft_pub.get_subscription_count() >= 1)
+
+        def tick(k, f_k, wrench_stamp, delay):
+            stamp = T0_NS + k * DT_NS
+            wrench = cv.wrench_along(('x', 'y', 'z'), [*f_k, 0.0], stamp_ns=wrench_stamp(stamp))
+            if delay is None:
+                robot.ft_pub.publish(wrench)
+            robot.state_pub.publish(robot.state(joints, q0, np.zeros(2), stamp))
+            late = threading.Timer(delay, robot.ft_pub.publish, (wrench,)) if delay is not None else None
+            if late is not None:
+                late.start()
+            t0 = time.monotonic()
+            assert spin_until(ex, lambda: all(stamp in s for s in (robot.commands, robot.references, robot.errors)))
+            waited = time.monotonic() - t0
+            if late is not None:
+                late.join()
+            cmd, ref, err = robot.commands[stamp], robot.references[stamp], robot.errors[stamp]
+            return cmd[3], ref, err, waited
+
+        def used_force(tau, ref, err, candidates):
+            for f in candidates:
+                want = saturate(expected_law(q0, np.zeros(2), ref, err, np.array(f)), ctrl.core.config.effort_limit)[0]
+                if np.allclose(tau, want, rtol=0, atol=1e-12):
+                    return f
+            return None
+
+        same = lambda s: s                                          # noqa: E731
+        tick(0, [2.0, 0.0], same, None)
+        time.sleep(0.05)
+        spin_until(ex, lambda: False, timeout=0.05)                  # tick 0's wrench taken: the stream is paired
+        tau, ref, err, _ = tick(1, [3.0, 0.0], same, 0.002)          # the wrench comes 2 ms after its state
+        assert used_force(tau, ref, err, ([3.0, 0.0], [2.0, 0.0])) == [3.0, 0.0]
+        time.sleep(0.05)
+        spin_until(ex, lambda: False, timeout=0.05)
+        tau, ref, err, waited = tick(2, [4.0, 0.0], lambda s: 0, 3 * WRENCH_WAIT)   # too late: waited for, bounded
+        assert used_force(tau, ref, err, ([4.0, 0.0], [3.0, 0.0])) == [3.0, 0.0]
+        assert waited >= WRENCH_WAIT
+        time.sleep(0.05)
+        spin_until(ex, lambda: False, timeout=0.05)                  # the unstamped wrench [4, 0] is taken
+        tau, ref, err, _ = tick(3, [5.0, 0.0], lambda s: 0, 0.002)    # unpaired stream: not waited for
+        assert used_force(tau, ref, err, ([5.0, 0.0], [4.0, 0.0])) == [4.0, 0.0]
+
 # -- 3. parameters ---------------------------------------------------------------------------------------
 def test_valid_parameter_change_takes_effect_on_the_next_tick(ros_context):
     with rig(ros_context, **POLAR) as (ex, ctrl, robot):
