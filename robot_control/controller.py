@@ -22,6 +22,11 @@ Force feedback on the force axes: 'sensor' uses the measured force f_meas (N, al
 axis, exerted by the robot on the environment); 'model' the lecture's spring f = k_e (x - x_e).
 In both cases fdot = k_e xd (the lecture's f_dot = k_e x_dot; no differentiation of a noisy
 sensor); out of contact with sensor feedback this damps the approach velocity.
+Sampled force (force_lead_time T > 0): a command is held for a control period while the contact
+force keeps changing, and a stiff contact (PyBullet's, a real one) acts with the force at the end
+of the hold. The laws then use f + fdot T, the force one period ahead: with T = the control
+period the force step of force_1dof follows the continuous design within 0.2 % of f_d (3.5 %
+with T = 0; measured, k_e = 1000 N/m, 1 ms). ~/error shows the errors of the predicted force.
 
 Time: `t` is in seconds on any time base that increases (the node uses the joint_states stamps).
 If t goes backwards (a simulator reset) the core restarts as after a watchdog trip.
@@ -103,6 +108,8 @@ class ControllerConfig:
     force_axes: names of the force-controlled task axes (subset of model.task_axes).
     k_e, x_e: environment stiffness (N/m, > 0) and location (m) per force axis.
     force_feedback: 'sensor' | 'model'.
+    force_lead_time: T, s (>= 0): the force laws use the force predicted T ahead, f + fdot T (see the
+      module docstring); 0 = the lecture's law on the sampled force.
     posture_gains: (kp0 1/s^2, kv0 1/s) of the null-space posture (hybrid, redundant arms).
     move_time: duration of a set_goal() move, s (> 0).
     force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
@@ -123,6 +130,7 @@ class ControllerConfig:
     k_e: np.ndarray = ()
     x_e: np.ndarray = ()
     force_feedback: str = 'sensor'
+    force_lead_time: float = 0.0
     posture_gains: tuple = (25.0, 10.0)
     move_time: float = 2.0
     force_ramp_time: float = 0.5
@@ -146,6 +154,7 @@ class ControllerConfig:
                              f'got {list(joints)}')
         set_('joints', joints)
         set_('integral', bool(self.integral))
+        set_('force_lead_time', validation.scalar('force_lead_time', self.force_lead_time, nonnegative=True))
         set_('integral_limit', float(limit_vector('integral_limit', self.integral_limit, 1)[0]))
         limit = model.effort_limit if self.effort_limit is None else self.effort_limit
         set_('effort_limit', _frozen(limit_vector('effort_limits', limit, n)))
@@ -255,7 +264,7 @@ class ControllerConfig:
         def arrays(g):
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
         return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
-                self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback,
+                self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
                 self.posture_gains, self.integral_limit)
 
     def replace(self, **changes):
@@ -594,7 +603,10 @@ class ControllerCore:
             if f_meas is None:
                 raise ValueError("f_meas: required with force_feedback 'sensor'")
             f = validation.vector('f_meas', f_meas, model.task_dim)[fidx]
-        return x, xd, f, cfg.k_e * xd[fidx]
+        fdot = cfg.k_e * xd[fidx]
+        if cfg.force_lead_time:
+            f = f + cfg.force_lead_time * fdot
+        return x, xd, f, fdot
 
     def _evaluate(self, int_E):
         """The configured law at this tick's state and reference, with the error integral int_E."""

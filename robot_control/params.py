@@ -166,6 +166,8 @@ def specs(defaults):
              'one per force axis'),
         Spec('force_feedback', T.STRING, 'sensor',
              "contact force: 'sensor' (ft_sensor/wrench) or 'model' (f = k_e (x - x_e))", ' | '.join(FORCE_FEEDBACK)),
+        Spec('force_lead_time', T.DOUBLE, 0.0, 'force laws use the force predicted this far ahead, f + fdot T, '
+             's; the control period compensates the command hold (0 = the lecture\'s law)', '>= 0'),
         Spec('f_d', T.DOUBLE_ARRAY, (), 'desired force per force axis (robot on environment), N; '
              'empty = 0; changes ramp over force_ramp_time', 'empty or one per force axis'),
         Spec('force_ramp_time', T.DOUBLE, 0.5, 'duration of a force reference change (quintic), s; 0 = step',
@@ -399,6 +401,7 @@ class ControllerParameters:
             effort_limit=values['effort_limits'] or None,
             joints=values['joints'] or None, force_axes=force_axes,
             k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
+            force_lead_time=values['force_lead_time'],
             posture_gains=(values['posture_kp'], values['posture_kv']),
             move_time=values['move_time'], force_ramp_time=values['force_ramp_time'],
             contact_max_travel=values['contact_max_travel'], contact_max_speed=values['contact_max_speed'])

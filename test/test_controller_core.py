@@ -437,6 +437,22 @@ def test_sensor_feedback_uses_the_measured_force_and_model_rate():
         core.update(1.1, np.array([0.1]), np.zeros(1))
 
 
+
+@pytest.mark.parametrize('feedback', ['sensor', 'model'])
+def test_force_lead_time_uses_the_force_one_period_ahead(feedback):
+    """force_lead_time T: the force law sees f + fdot T (f measured or k_e (x - x_e), fdot = k_e xd)."""
+    T, q, qd, f_meas = 0.001, np.array([0.103]), np.array([0.02]), 2.9
+    core = ControllerCore(force_config(feedback=feedback, force_lead_time=T, force_ramp_time=0.0))
+    core.set_force_reference([3.0])
+    tau = core.update(0.0, q, qd, f_meas=[f_meas])
+    f = f_meas if feedback == 'sensor' else 1000.0 * (q[0] - 0.1)
+    fdot = 1000.0 * qd[0]
+    want = force_1dof(1.5, np.array([f + fdot * T]), np.array([fdot]), np.array([3.0]), np.zeros(1), np.zeros(1),
+                      1000.0, core.config.force_gains)
+    np.testing.assert_allclose(tau, want, rtol=0, atol=1e-12)
+    assert abs(want[0] - force_1dof(1.5, np.array([f]), np.array([fdot]), np.array([3.0]), np.zeros(1),
+                                    np.zeros(1), 1000.0, core.config.force_gains)[0]) > 0.01   # T matters here
+
 # -- configuration ---------------------------------------------------------------------------------------
 @pytest.mark.parametrize('changes, match', [
     ({'law': 'pid'}, '^law: unknown'),
@@ -453,6 +469,7 @@ def test_sensor_feedback_uses_the_measured_force_and_model_rate():
     ({'joints': ('a',)}, '^joints:'),
     ({'move_time': 0.0}, '^move_time:'),
     ({'posture_gains': (-1.0, 1.0)}, '^posture_kp:'),
+    ({'force_lead_time': -0.001}, '^force_lead_time:'),
 ])
 def test_invalid_configurations_are_rejected_naming_the_parameter(changes, match):
     with pytest.raises(ValueError, match=match):

@@ -58,10 +58,11 @@ def runs(tmp_path_factory):
         r.close()
 
 
-#: smallest share of the control ticks the collector must see. Observers of the loop (this collector,
-#: the recorder, `ros2 bag`) can lose messages under CPU load: the nodes publish with KEEP_LAST depth
-#: 1, so DDS cannot repair a loss (see the report). The figures below hold on the ticks received.
-MIN_TICKS = 0.8
+#: smallest share of the control ticks the collector must see. An observer starved of CPU misses
+#: samples; the writers keep 10000 (qos.PUBLISHER_DEPTH) and DDS re-sends them after the next
+#: heartbeat, which the demo waits for (demo.REPAIR_TIMEOUT): measured, 18 of 18 runs complete with
+#: three runs in one process and two busy loops on two cores. 2 % margin for the unforeseen.
+MIN_TICKS = 0.98
 
 
 def _complete(result):
@@ -173,12 +174,12 @@ def test_model_error_pid_removes_it(runs):
 def test_force_step_follows_the_designed_dynamics(runs):
     """The force error of a 0 -> f_d step from contact at rest follows e_f'' + 12 e_f' + 36 e_f = 0.
 
-    The sampled loop is slower than the continuous design by about 5 % of f_d at most: the law cancels
-    the force measured at the start of each 1 ms control period, while PyBullet's soft contact applies
-    the force of its end (see the report; predicting f + fdot dt removes it), and by up to 7 % when the
-    controller uses the previous tick's wrench (a race in controller_node, see the report). Checked:
-    the deviation from the analytic response (< 10 % of f_d), the 2 % settling time against the design's
-    0.972 s (within 30 %), no overshoot, and the steady-state error (< 1 %, the issue's figure).
+    config/force_1dof.yaml sets force_lead_time = the 1 ms control period: the law uses f + fdot dt, the
+    force at the end of the command's hold, which PyBullet's stiff contact applies (with the lecture's
+    beta = f on the sampled force the response lags the design by 3.5 % of f_d and settles 14 % late).
+    Checked: the deviation from the analytic response (< 1 % of f_d; measured 0.16 %), the 2 % settling
+    time against the design's 0.972 s (within 3 %; measured 0.978 s), no overshoot, and the steady-state
+    error (< 1 %, the issue's figure).
     """
     result = runs.get('force')
     d, s = result.data, result.summary
@@ -195,8 +196,8 @@ def test_force_step_follows_the_designed_dynamics(runs):
           f'{s["force_settling_time_s"]:.3f} s (designed {designed_settling:.3f} s); max f {np.nanmax(f):.4f} N; '
           f'steady-state force error {e_ss:.3g} N = {abs(e_ss) / f_d:.2e} f_d')
     assert np.all(d.force_reference()[:, 0] == f_d)          # a step at the first tick (force_ramp_time 0)
-    assert deviation < 0.10
-    assert abs(s['force_settling_time_s'] - designed_settling) < 0.30 * designed_settling
+    assert deviation < 0.01
+    assert abs(s['force_settling_time_s'] - designed_settling) < 0.03 * designed_settling
     assert np.nanmax(f) < f_d * 1.01                          # critically damped: no overshoot
     assert abs(e_ss) < 0.01 * f_d
 
@@ -258,10 +259,7 @@ def test_mass_spring_cubic_tracks_a_sine(runs):
 # -- repeatability ----------------------------------------------------------------------------------------
 @pytest.mark.parametrize('first,second,name,duration', [
     ('polar', 'polar_again', 'polar_step', 1.7),
-    pytest.param('force', 'force_again', 'force_steps', 1.8, marks=pytest.mark.xfail(
-        strict=False, reason='with force_feedback sensor the controller uses the newest ft_sensor/wrench, '
-                             "which is the previous tick's when joint_states is taken first (a race): force "
-                             'runs are not yet bit-identical; pairing state and wrench by stamp is open')),
+    ('force', 'force_again', 'force_steps', 1.8),     # force_feedback sensor: the tick's own wrench
 ])
 def test_lockstep_runs_repeat_exactly(runs, first, second, name, duration):
     a, b = runs.get(first), runs.get(second)
