@@ -210,6 +210,8 @@ def machine_info():
                     break
     except OSError:
         pass
+    info['date'] = time.strftime('%Y-%m-%d', time.gmtime())
+    info['load_average'] = [round(x, 2) for x in os.getloadavg()]
     for key, dist in (('numpy', 'numpy'), ('pinocchio', 'pin'), ('pybullet', 'pybullet')):
         try:
             info[key] = metadata.version(dist)
@@ -235,8 +237,12 @@ def table(results):
 
 def markdown(results, machine, quick):
     """The results as a markdown table headed by the machine, for the README."""
-    head = (f'{"Quick" if quick else "Full"} run of `make bench` on {machine["cpu_model"]}, {machine["cores"]} cores, '
-            f'Python {machine["python"]}, Pinocchio {machine["pinocchio"]}, PyBullet {machine["pybullet"]}.')
+    load = machine.get('load_average')
+    head = (f'{"Quick" if quick else "Full"} run of `make bench` on {machine.get("date", "an unknown date")}, '
+            f'{machine["cpu_model"]}, {machine["cores"]} cores, Python {machine["python"]}, '
+            f'Pinocchio {machine["pinocchio"]}, PyBullet {machine["pybullet"]}'
+            + (f'; load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} at the end (1 / 5 / 15 min).'
+               if load else '.'))
     rows = [f'| `{k}` | {v:.4g} | {verdict(k, v)} |' for k, v in results.items()]
     return '\n'.join([head, '', '| metric | value | target |', '|---|---:|---|', *rows]) + '\n'
 

@@ -334,6 +334,28 @@ def test_readme_results_refuses_a_readme_without_markers_and_bad_summaries(tmp_p
     assert 'No results yet' in readme.read_text()
 
 
+def test_readme_bench_table_is_the_benchs_results_md_between_its_markers(tmp_path):
+    from robot_control import bench
+    results = {'law_us_ct_2dof_median': 7.5, 'lockstep_vs_pingpong_ratio': 0.55}
+    machine = {'cpu_model': 'AMD EPYC', 'cores': 2, 'python': '3.11.7', 'pinocchio': '4.1.0', 'pybullet': '3.2.7',
+               'date': '2026-11-22', 'load_average': [1.5, 1.25, 1.0]}
+    (tmp_path / 'bench').mkdir()
+    (tmp_path / 'bench' / 'results.md').write_text(bench.markdown(results, machine, quick=False))
+    readme = tmp_path / 'README.md'
+    head, mid, tail = '# r\n', '\n## Benchmarks\n', '\nprose after\n'
+    readme.write_text(head + readme_results.BEGIN + '\n' + readme_results.END + mid + readme_results.BENCH_BEGIN
+                      + '\n| hand | typed |\n' + readme_results.BENCH_END + tail)
+    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), '--bench', str(tmp_path / 'bench')]
+    assert readme_results.main(args) == 0
+    text = readme.read_text()
+    block = text[text.index(readme_results.BENCH_BEGIN):text.index(readme_results.BENCH_END)]
+    assert '| hand | typed |' not in text and text.endswith(readme_results.BENCH_END + tail)
+    assert 'Full run of `make bench` on 2026-11-22, AMD EPYC, 2 cores' in block
+    assert 'load average 1.50 / 1.25 / 1.00 at the end' in block
+    assert '| `law_us_ct_2dof_median` | 7.5 | met (<= 10) |' in block
+    assert '| `lockstep_vs_pingpong_ratio` | 0.55 | MISSED (>= 0.8) |' in block
+    assert readme_results.main(args + ['--check']) == 0
+
 def test_lost_ticks_are_reported_as_time_ranges():
     assert demo.time_ranges([]) == []
     assert demo.time_ranges([0.679, 0.68, 0.681, 0.9, 0.901, 1.5]) == [[0.679, 0.681], [0.9, 0.901], [1.5, 1.5]]
