@@ -3,7 +3,8 @@
 Topics (names relative, remappable; QoS from robot_control.qos):
   sub joint_states                sensor_msgs/JointState       CONTROL_QOS   robot state, by name
   sub ~/joint_trajectory          trajectory_msgs/JointTrajectory REFERENCE_QOS joint reference
-  sub ~/wrench_reference          geometry_msgs/WrenchStamped  REFERENCE_QOS desired force (force axes)
+  sub ~/wrench_reference          geometry_msgs/WrenchStamped  REFERENCE_QOS desired force (force axes);
+                                                                             stamped ahead: applied from that time
   sub ft_sensor/wrench            geometry_msgs/WrenchStamped  CONTROL_QOS   measured contact force
   pub robot_joint_commands        sensor_msgs/JointState       CONTROL_QOS   name + effort
   pub effort_controller/commands  std_msgs/Float64MultiArray   CONTROL_QOS   if publish_effort_array
@@ -126,6 +127,7 @@ class ControllerNode(Node):
         self._f_meas = np.zeros(len(self._task_axes))
         self._wrench_seen = False
         self._wrench_stamp_ns = None    # header.stamp of the last valid ft_sensor/wrench
+        self._pending_force = None      # (stamp_ns, f_d) of a wrench_reference stamped ahead
         self._epoch_ns = None
         self._last_state_ns = None      # node clock at the last valid joint_states
         self._last_state_steady_ns = None   # steady clock at the last valid joint_states
@@ -249,6 +251,10 @@ class ControllerNode(Node):
         if recovered:
             self._tripped = False
             self.get_logger().info('joint_states are back: restarting from the current state')
+        pending = self._pending_force
+        if pending is not None and stamp_ns >= pending[0]:
+            self._pending_force = None
+            self._core.set_force_reference(pending[1])
         try:
             tau = self._core.update((stamp_ns - self._epoch_ns) * 1e-9, q, qd, self._f_meas)
         except ValueError as exc:  # defensive: the core falls back to gravity hold before this
@@ -308,16 +314,24 @@ class ControllerNode(Node):
                                f'from t = {t0:.6f} s')
 
     def _on_wrench_reference(self, msg):
+        """A force reference: at once (header.stamp zero or not ahead of the last state), or pending
+        until the first state stamped at or after header.stamp (one pending; a new one replaces it)."""
         axes = self._core.config.force_axes
         try:
             if not axes:
                 raise ValueError('no force axes configured (parameter force_axes)')
             f_d = conversions.wrench_force(msg, axes)
-            self._core.set_force_reference(f_d)
+            stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
+            if stamp_ns and self._last_stamp_ns is not None and stamp_ns > self._last_stamp_ns:
+                self._pending_force = (stamp_ns, f_d)
+            else:
+                self._pending_force = None
+                self._core.set_force_reference(f_d)
         except ValueError as exc:
             self._reject('wrench_reference', exc)
             return
-        self.get_logger().info(f'force reference {dict(zip(axes, f_d.tolist()))} N')
+        when = f' from t = {self._time_of(stamp_ns):.6f} s' if self._pending_force is not None else ''
+        self.get_logger().info(f'force reference {dict(zip(axes, f_d.tolist()))} N{when}')
 
     def _reject(self, source, reason):
         self.rejected[source] += 1

@@ -283,6 +283,7 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         # -- the run
         end_ns = origin_ns + int(round(duration * NS))
         events = sorted(experiment.force_events)
+        next_event_send_ns = origin_ns
         progress = Progress(collector, origin_ns, units, f_names, say if write else None)
         last_progress_wall, last_stamp = time.monotonic(), -1
         say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
@@ -298,18 +299,27 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
             elif time.monotonic() - last_progress_wall > STALL_TIMEOUT:
                 raise RuntimeError(f'the simulation stalled at t = {stamp / NS:.3f} s for {STALL_TIMEOUT:g} s\n'
                                    f'sim_bridge log:\n{bridge.log_tail()}\ncontroller log:\n{controller.log_tail()}')
-            while events and stamp >= origin_ns + int(round(events[0][0] * NS)) - NS // 200:
+            # each force step is sent as soon as the one before it is due (the first at once), stamped with
+            # its time: the controller holds it and applies it at exactly that tick (repeatable in lockstep)
+            while events and stamp >= next_event_send_ns:
                 t_ev, f_ev = events.pop(0)
-                control.send_force(f_names, f_ev)
-                say(f'[demo] force reference {dict(zip(f_names, f_ev))} N at t = {(stamp - origin_ns) / NS:.3f} s',
-                    flush=True)
+                next_event_send_ns = origin_ns + int(round(t_ev * NS))
+                control.send_force(f_names, f_ev, stamp_ns=next_event_send_ns)
+                say(f'[demo] force reference {dict(zip(f_names, f_ev))} N from t = {t_ev:.3f} s (sent at '
+                    f't = {(stamp - origin_ns) / NS:.3f} s)', flush=True)
             progress.maybe()
         control.pause(True, poll=alive)
         wall = time.monotonic() - t_wall0
 
-        def tick_complete():  # the last tick's reference and error follow its command
+        # the last tick's reference and error follow its command; its wrench precedes its state (when the
+        # bridge publishes wrenches at all: the collector subscribes, so it does from the start)
+        last_ticks = ['/controller/reference', '/controller/error', '/joint_states']
+        if collector.count('/ft_sensor/wrench'):
+            last_ticks.append('/ft_sensor/wrench')
+
+        def tick_complete():
             return all(collector.last_stamp_ns(t) is not None and collector.last_stamp_ns(t) >= end_ns
-                       for t in ('/controller/reference', '/controller/error', '/joint_states'))
+                       for t in last_ticks)
         try:
             control.spin_until(tick_complete, REPAIR_TIMEOUT, alive, 'the last tick')
         except TimeoutError:

@@ -235,10 +235,8 @@ def _force_steps():
         'force_steps', 'force_1dof', 'force servo, k_e = 1000 N/m: steps 0 -> 10 -> 5 -> 15 N from contact at rest',
         duration=6.0, law='force', controller={'force_ramp_time': 0.0}, bridge={'initial_positions': [0.1]},
         force=(10.0,), force_events=((2.0, (5.0,)), (4.0, (15.0,))), settle_from=0.0,
-        # the 0.5 s before each next step, up to 20 ms short of it: the demo sends a step 5 ms ahead and in
-        # lockstep it lands within a few ms of the mark, depending on the load (a window reaching the
-        # mark counted a few ticks of a 10 N error: RMS 0.52 to 0.63 N from run to run)
-        force_window=((1.48, 1.98), (3.48, 3.98), (5.5, 6.0)),
+        # the last 0.5 s before each next step; the steps are stamped, so they land exactly on their tick
+        force_window=((1.5, 1.999), (3.5, 3.999), (5.5, 6.0)),
         notes='force error must follow e_f(t) = f_d (1 + 6 t) exp(-6 t)')
 
 

@@ -188,8 +188,9 @@ class RunControl:
                                            spec.accelerations, stamp_ns=stamp_ns)
         self.traj_pub.publish(msg)
 
-    def send_force(self, axes, values):
-        self.wrench_pub.publish(conversions.wrench_along(axes, values))
+    def send_force(self, axes, values, stamp_ns=0):
+        """Publish a force reference; stamped ahead, the controller applies it from that time."""
+        self.wrench_pub.publish(conversions.wrench_along(axes, values, stamp_ns=stamp_ns))
 
     def destroy(self):
         self.executor.remove_node(self.node)

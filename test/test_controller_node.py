@@ -322,6 +322,21 @@ def test_wrench_reference_sets_the_force_target(ros_context):
 
 
 
+def test_a_wrench_reference_stamped_ahead_applies_from_the_first_state_at_its_stamp(ros_context):
+    with rig(ros_context, scenario='force_1dof', law='force', force_feedback='model', force_ramp_time=0.0,
+             f_d=[2.0], effort_limits=[200.0]) as (ex, ctrl, robot):
+        robot.step(ex, ['x'], [0.1], [0.0], T0_NS)
+        at = T0_NS + 3 * DT_NS + 1                                   # between two states: the next one applies it
+        robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [7.5], stamp_ns=at),
+                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl._pending_force is not None)
+        targets = []
+        for k in range(1, 7):
+            _, ref, _ = robot.step(ex, ['x'], [0.1], [0.0], T0_NS + k * DT_NS)
+            targets.append(ref[1][0])
+        assert targets == [2.0, 2.0, 2.0, 7.5, 7.5, 7.5]
+        robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [3.0]),      # unstamped: at once
+                         lambda: ctrl.core.force_target.tolist() == [3.0])
+
 def test_each_state_is_answered_with_the_wrench_published_before_it(ros_context):
     """The bridge publishes a tick's wrench, then its state. Switching force_feedback to sensor at run
     time subscribes ft_sensor/wrench after joint_states, so an executor that finds both waiting runs the
