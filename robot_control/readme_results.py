@@ -8,7 +8,9 @@ between the lines `<!-- results:begin -->` and `<!-- results:end -->` in the REA
 markdown table, one row per experiment: its key metrics in SI units. Nothing outside the markers
 changes; a README without both markers is an error. When `<bench>/results.md` exists (written
 by `make bench`) and the README has the lines `<!-- bench:begin -->` and `<!-- bench:end -->`,
-what lies between them is replaced by that table the same way. `--check` changes nothing and exits 1 when the README is not up to date (for CI).
+what lies between them is replaced by that table the same way; likewise the robustness table
+(`<!-- robustness:begin -->`) from `out/robustness/summary.json` of a whole run of
+test/test_robustness.py (a partial run is an error naming the missing figures). `--check` changes nothing and exits 1 when the README is not up to date (for CI).
 """
 import argparse
 import json
@@ -20,6 +22,13 @@ BEGIN = '<!-- results:begin -->'
 END = '<!-- results:end -->'
 BENCH_BEGIN = '<!-- bench:begin -->'
 BENCH_END = '<!-- bench:end -->'
+ROBUSTNESS_BEGIN = '<!-- robustness:begin -->'
+ROBUSTNESS_END = '<!-- robustness:end -->'
+#: the figures of test/test_robustness.py a README table needs (a partial run lacks some)
+ROBUSTNESS_FIGURES = ('1_controller_sigkill', '2_bridge_sigkill', '4_flood', '6_second_publisher_robot_joint_commands',
+                      '6_second_publisher_effort_controller/commands', '7_unguarded', '7_lost_contact_processes',
+                      '8_library_computed_torque', '8_library_independent_joint', '8_saturated_step_processes',
+                      '8_without_anti_windup')
 REQUIRED = ('scenario', 'mode', 'duration_s', 'samples', 'rms_error', 'max_error', 'final_error',
             'steady_state_error', 'settling_time_s', 'force_rms_error', 'saturated_ticks', 'loop_rate_hz',
             'latency_p50_ms', 'latency_p99_ms')
@@ -124,6 +133,53 @@ def bench_table(bench_dir):
                             '(`make bench`); do not edit by hand._', '', path.read_text().strip('\n'), ''])
 
 
+def robustness_table(summary):
+    """The markdown between the robustness markers, from out/robustness/summary.json (a dict).
+
+    ValueError naming what is missing when the summary is not of a whole run of test_robustness.py."""
+    fig = summary.get('figures', {})
+    missing = [k for k in ROBUSTNESS_FIGURES if k not in fig]
+    if missing or 'bad_inputs_per_topic' not in summary:
+        raise ValueError(f'robustness summary of a partial run (missing {missing or ["bad_inputs_per_topic"]}); '
+                         'run the whole test/test_robustness.py')
+    per_topic = summary['bad_inputs_per_topic']
+    counts = sorted(set(per_topic.values()))
+    tried = (f'{counts[0]:,} each, {summary["bad_inputs_total"]:,} in all ({", ".join(sorted(per_topic))})'
+             if len(counts) == 1 else ', '.join(f'{k} {v:,}' for k, v in sorted(per_topic.items())))
+    kill, bridge, flood = fig['1_controller_sigkill'], fig['2_bridge_sigkill'], fig['4_flood']
+    rogue = [fig['6_second_publisher_robot_joint_commands'], fig['6_second_publisher_effort_controller/commands']]
+    detect = sorted(r['detected_after_s'] * 1e3 for r in rogue)
+    saturation = max(fig['8_library_computed_torque']['worst_excess_overshoot'],
+                     fig['8_library_independent_joint']['worst_excess_overshoot'],
+                     *(a - b for a, b in zip(fig['8_saturated_step_processes']['overshoot_saturated'],
+                                             fig['8_saturated_step_processes']['overshoot_unsaturated'])))
+    rows = [
+        ('faults injected / survived', f'{summary["faults_survived"]} / {summary["faults_injected"]}'),
+        ('bad inputs tried (generated with hypothesis: in-process and replayed to the processes)', tried),
+        ('efforts checked (finite, within limits)', f'{summary["efforts_checked"]:,}'),
+        ('unsafe commands published', f'**{summary["unsafe_commands_published"]}**'),
+        ('controller killed mid-motion: brakes engaged after the last command / end-effector drift braked',
+         f'{kill["brake_after_last_command_s"]:.3f} s of simulated time (command_timeout 0.05 s) / '
+         f'{kill["drift_with_brakes_m"] * 1e3:.1f} mm'),
+        ('bridge killed: controller ERROR on /diagnostics after',
+         f'{bridge["watchdog_error_after_s"]:.2f} s (state_timeout 0.5 s); resumes from the current state'),
+        (f'joint_states flood at {flood["publisher_rate_hz"]:,} Hz for 5 s: controller RSS growth / answer age p99',
+         f'{flood["rss_growth_mb"]:.1f} MB / {flood["answer_age_p99_ms"]:.1f} ms'),
+        ('second command publisher: detected after / rogue efforts applied',
+         f'{detect[0]:.0f}-{detect[-1]:.0f} ms / {sum(r["rogue_efforts_applied"] for r in rogue)} of '
+         f'{sum(r["rogue_messages_sent"] for r in rogue)}'),
+        ('lost contact in hybrid control: travel past the surface (guard at 10 mm) / unguarded',
+         f'{fig["7_lost_contact_processes"]["max_beyond_surface_m"] * 1e3:.1f} mm, with ERROR / '
+         f'{fig["7_unguarded"]["travel_m"] * 1e3:.0f} mm'),
+        ('saturated steps with anti-windup: overshoot beyond the unsaturated response / without anti-windup',
+         f'<= {saturation:.1%} / {max(fig["8_without_anti_windup"]["overshoot"]):.0%}'),
+    ]
+    lines = ['', '_Generated by `python -m robot_control.readme_results` from `out/robustness/summary.json` '
+                 '(`pytest test/test_robustness.py`); do not edit by hand._', '', '| figure | value |', '|---|---|']
+    lines += [f'| {a} | {b} |' for a, b in rows]
+    return '\n'.join(lines + [''])
+
+
 def replace_between_markers(text, body, begin=BEGIN, end=END):
     """`text` with everything between `begin` and `end` replaced by `body`; ValueError without both markers."""
     start = text.find(begin)
@@ -135,7 +191,7 @@ def replace_between_markers(text, body, begin=BEGIN, end=END):
     return text[:start + len(begin)] + '\n' + body.strip('\n') + '\n' + text[stop:]
 
 
-def update(readme, results_dir, check=False, bench_dir=None):
+def update(readme, results_dir, check=False, bench_dir=None, robustness=None):
     """Rewrite `readme` (unless check); returns True when its content changed (or would change)."""
     readme = Path(readme)
     text = readme.read_text()
@@ -143,6 +199,11 @@ def update(readme, results_dir, check=False, bench_dir=None):
     bench = None if bench_dir is None or BENCH_BEGIN not in text else bench_table(bench_dir)
     if bench is not None:
         new = replace_between_markers(new, bench, BENCH_BEGIN, BENCH_END)
+    if robustness is not None and ROBUSTNESS_BEGIN in text:
+        path = Path(robustness)
+        if path.is_file():
+            new = replace_between_markers(new, robustness_table(json.loads(path.read_text())),
+                                          ROBUSTNESS_BEGIN, ROBUSTNESS_END)
     changed = new != text
     if changed and not check:
         readme.write_text(new)
@@ -155,10 +216,19 @@ def main(argv=None):
     p.add_argument('--readme', default=str(root / 'README.md'))
     p.add_argument('--results', default=str(root / 'out' / 'demo'), help='directory holding */summary.json')
     p.add_argument('--bench', default=str(root / 'out' / 'bench'), help='directory holding results.md of make bench')
+    p.add_argument('--robustness', default=str(root / 'out' / 'robustness' / 'summary.json'),
+                   help='summary.json of a whole run of test/test_robustness.py')
     p.add_argument('--check', action='store_true', help='exit 1 if the README is not up to date; change nothing')
     opts = p.parse_args(argv)
     try:
-        changed = update(opts.readme, opts.results, check=opts.check, bench_dir=opts.bench)
+        try:
+            changed = update(opts.readme, opts.results, check=opts.check, bench_dir=opts.bench,
+                             robustness=opts.robustness)
+        except ValueError as exc:
+            if not str(exc).startswith('robustness'):
+                raise
+            print(f'readme_results: {exc}: the robustness table is left as it is', file=sys.stderr)
+            changed = update(opts.readme, opts.results, check=opts.check, bench_dir=opts.bench)
     except (OSError, ValueError) as exc:
         print(f'readme_results: {exc}', file=sys.stderr)
         return 2

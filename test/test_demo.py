@@ -356,6 +356,47 @@ def test_readme_bench_table_is_the_benchs_results_md_between_its_markers(tmp_pat
     assert '| `lockstep_vs_pingpong_ratio` | 0.55 | MISSED (>= 0.8) |' in block
     assert readme_results.main(args + ['--check']) == 0
 
+def _robustness_summary():
+    fig = {
+        '1_controller_sigkill': {'brake_after_last_command_s': 0.051, 'drift_with_brakes_m': 0.0},
+        '2_bridge_sigkill': {'watchdog_error_after_s': 0.501},
+        '4_flood': {'publisher_rate_hz': 19999, 'rss_growth_mb': 1.7, 'answer_age_p99_ms': 4.88},
+        '6_second_publisher_robot_joint_commands': {'detected_after_s': 0.024, 'rogue_efforts_applied': 0,
+                                                    'rogue_messages_sent': 172},
+        '6_second_publisher_effort_controller/commands': {'detected_after_s': 0.007, 'rogue_efforts_applied': 0,
+                                                          'rogue_messages_sent': 168},
+        '7_unguarded': {'travel_m': 0.1088}, '7_lost_contact_processes': {'max_beyond_surface_m': 0.0111},
+        '8_library_computed_torque': {'worst_excess_overshoot': 0.0048},
+        '8_library_independent_joint': {'worst_excess_overshoot': 0.0192},
+        '8_saturated_step_processes': {'overshoot_saturated': [0.0005, 0.0019], 'overshoot_unsaturated': [0.0002, 0.0002]},
+        '8_without_anti_windup': {'overshoot': [0.2808, 0.2532]},
+    }
+    return {'faults_injected': 15, 'faults_survived': 15, 'efforts_checked': 41638, 'unsafe_commands_published': 0,
+            'bad_inputs_per_topic': {'controller joint_states': 4000, 'bridge robot_joint_commands': 4000},
+            'bad_inputs_total': 8000, 'figures': fig}
+
+
+def test_readme_robustness_table_is_generated_from_a_whole_run_only(tmp_path):
+    summary = _robustness_summary()
+    path = tmp_path / 'summary.json'
+    path.write_text(json.dumps(summary))
+    readme = tmp_path / 'README.md'
+    readme.write_text(readme_results.BEGIN + '\n' + readme_results.END + '\n## Safety\n'
+                      + readme_results.ROBUSTNESS_BEGIN + '\n| typed | by hand |\n' + readme_results.ROBUSTNESS_END + '\n')
+    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), '--robustness', str(path)]
+    assert readme_results.main(args) == 0
+    text = readme.read_text()
+    assert '| typed | by hand |' not in text
+    for cell in ('| 15 / 15 |', '| 4,000 each, 8,000 in all (bridge robot_joint_commands, controller joint_states) |', '| 41,638 |', '| **0** |',
+                 '| 0.051 s of simulated time (command_timeout 0.05 s) / 0.0 mm |', '| 0.50 s (state_timeout 0.5 s)',
+                 'at 19,999 Hz for 5 s', '| 1.7 MB / 4.9 ms |', '| 7-24 ms / 0 of 340 |', '| 11.1 mm, with ERROR / 109 mm |',
+                 '| <= 1.9% / 28% |'):
+        assert cell in text, cell
+    del summary['figures']['1_controller_sigkill']                 # a run with -k: refused, naming what is missing
+    path.write_text(json.dumps(summary))
+    with pytest.raises(ValueError, match=r"partial run \(missing \['1_controller_sigkill'\]\)"):
+        readme_results.update(readme, tmp_path / 'none', robustness=path)
+
 def test_lost_ticks_are_reported_as_time_ranges():
     assert demo.time_ranges([]) == []
     assert demo.time_ranges([0.679, 0.68, 0.681, 0.9, 0.901, 1.5]) == [[0.679, 0.681], [0.9, 0.901], [1.5, 1.5]]
