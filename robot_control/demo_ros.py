@@ -249,7 +249,6 @@ def align(collector, joints, joint_units, force_axes, force_axis_index, law, ori
     seen = sorted(set(cmds) | set(states))
     period = int(np.median(np.diff(seen))) if len(seen) > 1 else 0
     expected = range(origin_ns, end_ns + 1, period) if period > 0 else ()
-    have = set(stamps)
     lost = {topic: [k for k in expected if k not in d] for topic, d in
             (('/robot_joint_commands', cmds), ('/joint_states', states), ('/controller/reference', refs),
              ('/controller/error', errs))} if lockstep else {}

@@ -37,12 +37,11 @@ For URDF robots (iiwa) only gravity can be overridden; a payload is a modified U
 `disturbance.joint_torque` is added to the actuator torque: the lecture's load d (m xdd + ... + d = u)
 is its negative.
 """
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from robot_control import scenarios
+from robot_control import scenarios, validation
 
 MODES = ('realtime', 'lockstep')
 #: gravity of URDF robots unless overridden, m/s^2 (sim_bridge.world.DEFAULT_GRAVITY)
@@ -180,16 +179,10 @@ class BridgeConfig:
 
 
 def _finite(name, value, *, positive=False, nonnegative=False):
+    """validation.scalar for a parameter value, which must be a number (not a bool or a string)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f'{name}: expected a number, got {value!r}')
-    x = float(value)
-    if not math.isfinite(x):
-        raise ValueError(f'{name}: expected a finite number, got {x}')
-    if positive and not x > 0.0:
-        raise ValueError(f'{name}: expected a positive number, got {x}')
-    if nonnegative and not x >= 0.0:
-        raise ValueError(f'{name}: expected a non-negative number, got {x}')
-    return x
+    return validation.scalar(name, value, positive=positive, nonnegative=nonnegative)
 
 
 def _array(name, value, n):
