@@ -65,6 +65,7 @@ from robot_control import conversions, spin
 from robot_control.controller import ControllerCore
 from robot_control.params import ControllerParameters, ParameterError
 from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
+from robot_control.throttle import Throttle
 
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
@@ -135,6 +136,7 @@ class ControllerNode(Node):
         self._tripped = False
         self.trips = 0
         self.rejected = dict.fromkeys(INPUTS, 0)
+        self._warn_throttle = Throttle(WARN_THROTTLE * 1e9)
         self.last_rejection = ''
         self.commands_sent = 0
         self.trajectories_accepted = 0
@@ -336,7 +338,8 @@ class ControllerNode(Node):
     def _reject(self, source, reason):
         self.rejected[source] += 1
         self.last_rejection = f'{source}: {reason}'
-        self.get_logger().warning(f'rejected {self.last_rejection}', throttle_duration_sec=WARN_THROTTLE)
+        if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.throttle
+            self.get_logger().warning(f'rejected {self.last_rejection}')
 
     # -- watchdog and diagnostics ------------------------------------------------------------------
     def _set_watchdog(self, timeout):

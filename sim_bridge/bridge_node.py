@@ -70,9 +70,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from robot_control import conversions, scenarios, spin
 from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
+from robot_control.throttle import Throttle
 from sim_bridge import bridge_params
 from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
-                               RealtimePacer, SourceGuard, Throttle, stamp_ns)
+                               RealtimePacer, SourceGuard, stamp_ns)
 
 NS = 1_000_000_000
 #: /clock: reliable (also serves rclpy's and rclcpp's best-effort clock subscriptions), newest only

@@ -280,22 +280,6 @@ class SourceGuard:
         return self._evidence_ns is None or not self.in_conflict(t_ns)
 
 
-class Throttle:
-    """At most one event per `period_ns` of wall time (for warnings); counts the suppressed ones."""
-
-    def __init__(self, period_ns):
-        self.period_ns = int(period_ns)
-        self._next = None
-        self.suppressed = 0
-
-    def ready(self, wall_ns):
-        if self._next is None or wall_ns >= self._next:
-            self._next = wall_ns + self.period_ns
-            return True
-        self.suppressed += 1
-        return False
-
-
 class RateMeter:
     """Achieved real-time factor (simulation time / wall time) between two readings."""
 

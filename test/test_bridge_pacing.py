@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from sim_bridge import bridge_params
+from robot_control.throttle import Throttle
 from sim_bridge.pacing import (CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
-                               SourceGuard, Throttle, stamp_ns)
+                               SourceGuard, stamp_ns)
 
 MS = 1_000_000
 
