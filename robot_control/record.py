@@ -288,14 +288,19 @@ class Recorder:
         """
         if self._closed:
             return dict(self.counts)
+        from rclpy.exceptions import InvalidHandle
         self._running = False
+        try:
+            self._take_waiting(dict(self._subs))   # before closing: the writer ends once closed, queue empty
+        except (InvalidHandle, RuntimeError) as exc:  # context already shut down: nothing left to take
+            self._log.debug(f'recorder: taking the waiting messages: {exc!r}')
         with self._lock:
             self._closed = True
-            subs, self._subs = list(self._subs.values()), {}
+            subs, self._subs = dict(self._subs), {}
         try:
             if self._timer is not None:
                 self.node.destroy_timer(self._timer)
-            for sub in subs:
+            for sub in subs.values():
                 self.node.destroy_subscription(sub)
         except Exception as exc:  # context already shut down: nothing left to unsubscribe from
             self._log.debug(f'recorder: unsubscribing: {exc!r}')
@@ -306,6 +311,19 @@ class Recorder:
         if self._error is not None:
             raise RuntimeError(f'recorder: writing {self.path} failed: {self._error!r}') from self._error
         return dict(self.counts)
+
+    def _take_waiting(self, subs):
+        """Queue what DDS has delivered but the executor has not handed over yet (an executor that
+        falls behind under load would otherwise lose the run's last messages at stop())."""
+        now = self._clock.now
+        for topic, sub in subs.items():
+            cls = _message_class(self.types[topic])
+            with sub.handle:
+                while True:
+                    taken = sub.handle.take_message(cls, True)
+                    if taken is None:
+                        break
+                    self._queue.append((topic, now().nanoseconds, taken[0]))
 
     def _close_writer(self):
         """Let the writer thread write the queue and close the bag; also run at interpreter exit."""
