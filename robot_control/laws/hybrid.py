@@ -177,6 +177,15 @@ def hybrid_servo(x, xd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes,
     return _servo_F(x, xd, *task, axes, K_e, gains_T, gains_N, int_E)
 
 
+def _task_shape(J):
+    """(m, n) of the task Jacobian J, checked: m <= n and J far from singular (_check_jacobian)."""
+    m, n = J.shape
+    if m > n:
+        raise ValueError(f'J: task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
+    _check_jacobian(J)
+    return m, n
+
+
 def _check_jacobian(J):
     """ValueError naming q when cond(J) > MAX_JACOBIAN_COND; the SVD runs only near a singularity."""
     m = J.shape[0]
@@ -232,10 +241,7 @@ def task_space_torque(M, h, J, Jdot_qd, F, f_e, qdd_0=None):
     M (n, n), h = C qd + g (n,), J (m, n) with m <= n, Jdot_qd (m,), F = F' (m,) m/s^2,
     f_e (m,) N, qdd_0 (n,) the posture acceleration (used only when m < n). Returns tau (n,).
     """
-    m, n = J.shape
-    if m > n:
-        raise ValueError(f'J: task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
-    _check_jacobian(J)
+    m, n = _task_shape(J)
     a = F - Jdot_qd
     if m == n:
         qdd = np.linalg.solve(J, a)
@@ -255,10 +261,7 @@ def _model_task_torque(model, q, qd, J, Jdot_qd, F, f_e, qdd_0):
     qdd* = qdd_0 + Jbar (F - Jdot qd - J qdd_0), so tau = rnea(q, qd, qdd_0) + J^T (y + f_e) with
     y = Lambda (F - Jdot qd - J qdd_0), Lambda^-1 = J M^-1 J^T (m x m).
     """
-    m, n = J.shape
-    if m > n:
-        raise ValueError(f'J: task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
-    _check_jacobian(J)
+    m, n = _task_shape(J)
     a = F - Jdot_qd
     if m == n:
         return model._inverse_dynamics(q, qd, _solve(J, a)) + J.T @ f_e
