@@ -31,6 +31,7 @@ import atexit
 import collections
 import importlib
 import os
+import itertools
 import re
 import shutil
 import signal
@@ -315,15 +316,18 @@ class Recorder:
     def _take_waiting(self, subs):
         """Queue what DDS has delivered but the executor has not handed over yet (an executor that
         falls behind under load would otherwise lose the run's last messages at stop())."""
-        now = self._clock.now
         for topic, sub in subs.items():
-            cls = _message_class(self.types[topic])
-            with sub.handle:
-                while True:
-                    taken = sub.handle.take_message(cls, True)
-                    if taken is None:
-                        break
-                    self._queue.append((topic, now().nanoseconds, taken[0]))
+            self._take(sub, _message_class(self.types[topic]), topic)
+
+    def _take(self, sub, cls, topic, limit=None):
+        """Queue up to `limit` (None: all) messages waiting on `sub`, taken directly from DDS."""
+        append, now = self._queue.append, self._clock.now
+        with sub.handle:
+            for _ in itertools.repeat(None) if limit is None else range(limit):
+                taken = sub.handle.take_message(cls, True)
+                if taken is None:
+                    return
+                append((topic, now().nanoseconds, taken[0]))
 
     def _close_writer(self):
         """Let the writer thread write the queue and close the bag; also run at interpreter exit."""
@@ -419,13 +423,7 @@ class Recorder:
             # take what else is already waiting on this subscription directly, up to `burst`.
             if burst:
                 try:
-                    handle = holder[0].handle
-                    with handle:
-                        for _ in range(burst):
-                            taken = handle.take_message(cls, True)
-                            if taken is None:
-                                break
-                            append((topic, now().nanoseconds, taken[0]))
+                    self._take(holder[0], cls, topic, burst)
                 except InvalidHandle:  # destroyed by stop() meanwhile
                     pass
 
