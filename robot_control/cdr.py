@@ -1,0 +1,313 @@
+"""Fast codec for sensor_msgs/JointState in its serialized form (CDR, little endian).
+
+The bytes are those rclpy hands a subscription created with ``raw=True`` and those
+``Publisher.publish(bytes)`` sends: a 4-byte encapsulation header (0x00 0x01 = CDR little
+endian, then 2 option bytes, 0x00 0x00 here and ignored), then the plain CDR (XCDR1) body,
+aligned from the body start (byte 4):
+
+    int32 sec, uint32 nanosec, string frame_id,        # std_msgs/Header
+    sequence<string> name,
+    sequence<double> position, velocity, effort
+
+A string is a uint32 length counting the terminating NUL, the UTF-8 bytes, then the NUL. A
+sequence is a uint32 count aligned to 4, then its items; doubles are aligned to 8, and an empty
+sequence adds no padding.
+
+rclpy's ``serialize_message`` returns a buffer of Fast-DDS's *estimated* size, which counts
+every double sequence as padded to 8 even when empty: its output may end with up to 12 bytes
+past the data. A typed publish puts only the data on the wire, and so does the encoder (readers
+such as rosbags insist on the exact size). rclpy leaves all padding unwritten, i.e. heap
+garbage; the encoder writes zeros there. The decoder ignores padding and trailing bytes.
+
+No rclpy here (library layer): the caller falls back to ``rclpy.serialization`` when
+`JointStateDecoder.decode` returns None.
+"""
+import operator
+import struct
+
+import numpy as np
+
+NS_PER_S = 1_000_000_000
+INT32_MAX = 2 ** 31 - 1
+FIELDS = ('position', 'velocity', 'effort')
+
+_F8 = np.dtype('<f8')
+_EMPTY = np.empty(0, _F8)
+_EMPTY.flags.writeable = False
+_HEAD = struct.Struct('<BBxxiI')      # encapsulation id (2 bytes), options, sec, nanosec
+_U32 = struct.Struct('<I')
+_STAMP = struct.Struct('<iI')
+_BODY = 4                             # body start: CDR alignment counts from here
+_FRAME_ID = 12                        # offset of the frame_id length
+_ERRORS = (struct.error, ValueError, IndexError, TypeError, OverflowError)
+
+
+def _align4(off):
+    """Offset `off` (bytes from the buffer start) rounded up to a 4-aligned body offset."""
+    return (off + 3) & ~3
+
+
+def _align8(off):
+    """Offset `off` (bytes from the buffer start) rounded up to an 8-aligned body offset."""
+    return off + ((_BODY - off) & 7)
+
+
+class JointStateFrame(tuple):
+    """Read-only stand-in for a received sensor_msgs/JointState, with the same attribute names.
+
+    `.header.stamp.sec` (s), `.header.stamp.nanosec` (ns), `.header.frame_id` (str), `.name`
+    (list of str: may be the decoder's cached list, do not modify), `.position` (rad or m),
+    `.velocity` (rad/s or m/s), `.effort` (N*m or N): read-only float64 1-D arrays, possibly
+    views into the received buffer. To stay light, `.header` and `.header.stamp` are the frame
+    itself (one object per message), so `.sec`, `.nanosec` and `.frame_id` also read directly.
+    """
+
+    __slots__ = ()
+    header = property(lambda self: self, doc='std_msgs/Header stand-in: .stamp, .frame_id (the frame itself)')
+    stamp = property(lambda self: self, doc='builtin_interfaces/Time stand-in: .sec, .nanosec (the frame itself)')
+    sec = property(operator.itemgetter(0), doc='stamp: whole seconds (s, int32)')
+    nanosec = property(operator.itemgetter(1), doc='stamp: nanoseconds within the second (ns, < 1e9)')
+    frame_id = property(operator.itemgetter(2), doc='frame id (str)')
+    name = property(operator.itemgetter(3), doc='joint names (list of str)')
+    position = property(operator.itemgetter(4), doc='joint positions (rad or m), float64 array')
+    velocity = property(operator.itemgetter(5), doc='joint velocities (rad/s or m/s), float64 array')
+    effort = property(operator.itemgetter(6), doc='joint efforts (N*m or N), float64 array')
+
+    def __repr__(self):
+        return (f'JointStateFrame(sec={self.sec}, nanosec={self.nanosec}, frame_id={self.frame_id!r}, '
+                f'name={self.name!r}, position={self.position.tolist()}, velocity={self.velocity.tolist()}, '
+                f'effort={self.effort.tolist()})')
+
+
+def _string(buf, off, size):
+    """(str, end offset) of the CDR string whose length field is at `off`; raises ValueError if malformed."""
+    (length,) = _U32.unpack_from(buf, off)
+    start = off + 4
+    end = start + length
+    if length == 0 or end > size or buf[end - 1] != 0 or buf.find(0, start, end - 1) >= 0:
+        raise ValueError('malformed string')  # rclpy would cut at an inner NUL: leave that to it
+    return buf[start:end - 1].decode(), end
+
+
+def _names(buf, off, size):
+    """(list of str, end offset, parts) of the sequence<string> whose count is at `off` (4-aligned).
+
+    `parts` are the (offset from `off`, bytes) of the count and of each string: the block
+    without its padding."""
+    (count,) = _U32.unpack_from(buf, off)
+    if count * 5 > size - off:  # each string takes at least 4 + 1 bytes
+        raise ValueError('name count runs past the end')
+    start, off = off, off + 4
+    names, parts = [], [(0, buf[start:off])]
+    for _ in range(count):
+        string = _align4(off)
+        name, off = _string(buf, string, size)
+        names.append(name)
+        parts.append((string - start, buf[string:off]))
+    return names, off, parts
+
+
+def _has_parts(buf, off, parts):
+    """True when `buf` holds each (offset from `off`, bytes) of `parts`."""
+    for rel, raw in parts:
+        if not buf.startswith(raw, off + rel):
+            return False
+    return True
+
+
+def _doubles(buf, off, size):
+    """(read-only float64 array, end offset) of the sequence<double> whose count is at `off` (4-aligned)."""
+    (count,) = _U32.unpack_from(buf, off)
+    off += 4
+    if not count:
+        return _EMPTY, off
+    off = _align8(off)
+    end = off + 8 * count
+    if end > size:
+        raise ValueError('double count runs past the end')
+    return np.frombuffer(buf, _F8, count, off), end
+
+
+def _three_doubles(buf, off, size):
+    """(position, velocity, effort) arrays of the three sequence<double> from `off` (4-aligned)."""
+    position, off = _doubles(buf, off, size)
+    velocity, off = _doubles(buf, _align4(off), size)
+    effort, off = _doubles(buf, _align4(off), size)
+    return position, velocity, effort
+
+
+def _equal_doubles(buf, off, size):
+    """Like `_three_doubles` when the three have the same count n > 0 (the usual case), else None.
+
+    Their layouts then repeat with a stride of 8 n + 8 bytes (count and padding), so one 2-D
+    view serves all three: faster than three np.frombuffer calls."""
+    (count,) = _U32.unpack_from(buf, off)
+    start = _align8(off + 4)
+    stride = 8 * count + 8
+    if (not count or start + 3 * stride - 8 > size or _U32.unpack_from(buf, start + stride - 8)[0] != count
+            or _U32.unpack_from(buf, start + 2 * stride - 8)[0] != count):
+        return None
+    rows = np.ndarray((3, count), _F8, buf, start, (stride, 8))
+    return rows[0], rows[1], rows[2]
+
+
+class JointStateDecoder:
+    """Decodes serialized sensor_msgs/JointState bytes into `JointStateFrame`s.
+
+    Remembers the last frame_id and name block: a message whose names are byte-identical to
+    the previous ones gets the very same `name` list object, without decoding strings. The
+    whole block is compared first (one memcmp); if that fails, its parts without the padding,
+    which rclpy's serialize_message leaves as garbage.
+    """
+
+    __slots__ = ('_frame_raw', '_frame_id', '_names_raw', '_names_parts', '_names')
+
+    def __init__(self):
+        self._frame_raw = b'\x01\x00\x00\x00\x00'   # frame_id '' as CDR: length 1, NUL
+        self._frame_id = ''
+        self._names_raw = None
+        self._names_parts = ()
+        self._names = None
+
+    def decode(self, buf):
+        """`JointStateFrame` of the CDR bytes `buf`, or None (never raises) if they are not
+        well-formed little-endian CDR JointState; trailing bytes after the effort are ignored."""
+        try:
+            return self._decode(buf if type(buf) is bytes else bytes(buf))
+        except _ERRORS:
+            return None
+
+    def _decode(self, buf):
+        encoding, kind, sec, nanosec = _HEAD.unpack_from(buf)
+        if encoding != 0 or kind != 1:
+            return None
+        size = len(buf)
+        off = self._frame_id_end(buf, size)
+        off = self._names_end(buf, _align4(off), size)
+        off = _align4(off)
+        arrays = _equal_doubles(buf, off, size) or _three_doubles(buf, off, size)
+        return tuple.__new__(JointStateFrame, (sec, nanosec, self._frame_id, self._names) + arrays)
+
+    def _frame_id_end(self, buf, size):
+        """Reads frame_id into the cache (unless unchanged); returns the offset after it."""
+        raw = self._frame_raw
+        if buf.startswith(raw, _FRAME_ID):
+            return _FRAME_ID + len(raw)
+        self._frame_id, end = _string(buf, _FRAME_ID, size)
+        self._frame_raw = buf[_FRAME_ID:end]
+        return end
+
+    def _names_end(self, buf, off, size):
+        """Reads the name sequence at `off` into the cache (unless unchanged); returns its end."""
+        raw = self._names_raw
+        if raw is not None and buf.startswith(raw, off):
+            return off + len(raw)
+        if raw is not None and _has_parts(buf, off, self._names_parts):
+            end = off + len(raw)
+        else:
+            self._names, end, self._names_parts = _names(buf, off, size)
+        self._names_raw = buf[off:end]
+        return end
+
+
+def _pad(out, align):
+    """Appends zero bytes to the bytearray `out` up to the buffer offset `align(len(out))`."""
+    out += bytes(align(len(out)) - len(out))
+
+
+def _encoded_names(names):
+    """UTF-8 bytes of each joint name; ValueError naming 'names' unless a sequence of NUL-free str."""
+    if isinstance(names, (str, bytes)) or not hasattr(names, '__iter__'):
+        raise ValueError(f'names: must be a sequence of str, got {type(names).__name__}')
+    names = list(names)
+    for i, name in enumerate(names):
+        if not isinstance(name, str):
+            raise ValueError(f'names[{i}]: must be str, got {type(name).__name__}')
+        if '\x00' in name:
+            raise ValueError(f'names[{i}]: must not contain NUL')
+    return [name.encode() for name in names]
+
+
+def _layout(encoded, fields):
+    """(zeroed message bytearray with all counts written, {field: (offset of its doubles, count)}).
+
+    The message ends with its last byte of data, as a typed publish puts it on the wire (rclpy's
+    serialize_message returns a buffer up to 12 bytes longer: its size estimate)."""
+    out = bytearray(b'\x00\x01\x00\x00') + bytes(8) + _U32.pack(1) + b'\x00'   # stamp, frame_id ''
+    _pad(out, _align4)
+    out += _U32.pack(len(encoded))
+    for name in encoded:
+        _pad(out, _align4)
+        out += _U32.pack(len(name) + 1) + name + b'\x00'
+    slots = {}
+    for field in FIELDS:
+        count = len(encoded) if field in fields else 0
+        _pad(out, _align4)
+        out += _U32.pack(count)
+        if count:
+            _pad(out, _align8)
+        slots[field] = (len(out), count)
+        out += bytes(8 * count)
+    return out, slots
+
+
+class JointStateEncoder:
+    """Serializes sensor_msgs/JointState for a fixed joint name list (frame_id '') into CDR bytes.
+
+    The message layout is built once; `encode` writes the stamp and values in place. Output is
+    byte-identical to what a typed publish of the same message puts on the wire, which is
+    rclpy's serialize_message without its size-estimate tail (padding as zeros).
+    Fields not in `fields` are sent as empty sequences.
+    """
+
+    __slots__ = ('_buf', '_n', '_views')
+
+    def __init__(self, names, fields=FIELDS):
+        """`names`: joint names (sequence of str); `fields`: the subset of 'position', 'velocity',
+        'effort' that carries one value per joint (initially zeros)."""
+        if isinstance(fields, str) or not set(fields) <= set(FIELDS):
+            raise ValueError(f'fields: must be a subset of {FIELDS}, got {fields!r}')
+        encoded = _encoded_names(names)
+        self._n = len(encoded)
+        self._buf, slots = _layout(encoded, fields)
+        self._views = {f: np.frombuffer(self._buf, _F8, n, off) for f, (off, n) in slots.items() if f in fields}
+
+    def encode(self, stamp_ns, position=None, velocity=None, effort=None):
+        """CDR bytes of the JointState stamped `stamp_ns` (int ns since the epoch, >= 0).
+
+        Each listed field given as a sequence of len(names) floats (rad or m; rad/s or m/s;
+        N*m or N) replaces its values; None keeps the previous ones. ValueError names the
+        offending argument; nothing is written then. Returns a fresh bytes object."""
+        writes = []
+        for field, value in zip(FIELDS, (position, velocity, effort)):
+            if value is not None:
+                writes.append((self._view(field, value), value))
+        sec, nanosec = _stamp(stamp_ns)
+        for view, value in writes:
+            view[...] = value
+        _STAMP.pack_into(self._buf, _BODY, sec, nanosec)
+        return bytes(self._buf)
+
+    def _view(self, field, value):
+        """The float64 view of `field` in the message; ValueError naming `field` unless it is
+        listed and `value` has one entry per joint."""
+        view = self._views.get(field)
+        if view is None:
+            raise ValueError(f'{field}: not among the encoder\'s fields {tuple(self._views)}')
+        shape = value.shape if isinstance(value, np.ndarray) else np.shape(value)
+        if shape != view.shape:
+            raise ValueError(f'{field}: expected {self._n} values (one per name), got shape {shape}')
+        return view
+
+
+def _stamp(stamp_ns):
+    """(sec, nanosec) of `stamp_ns` (int ns); ValueError naming 'stamp_ns' if negative or beyond int32 s."""
+    if type(stamp_ns) is not int:
+        try:
+            stamp_ns = operator.index(stamp_ns)
+        except TypeError:
+            raise ValueError(f'stamp_ns: must be an int (ns), got {type(stamp_ns).__name__}') from None
+    sec, nanosec = divmod(stamp_ns, NS_PER_S)
+    if stamp_ns < 0 or sec > INT32_MAX:
+        raise ValueError(f'stamp_ns: {stamp_ns} outside [0, {INT32_MAX} s]')
+    return sec, nanosec
