@@ -24,6 +24,9 @@ class Disturbance:
             raise ValueError('cartesian_force: this robot has no tip link to apply it at')
         self.joint_torque.setflags(write=False)
         self.cartesian_force.setflags(write=False)
+        #: True when a non-zero joint torque / Cartesian force is set (fixed: the object is immutable)
+        self.has_joint_torque = bool(np.any(self.joint_torque != 0.0))
+        self.has_force = bool(np.any(self.cartesian_force != 0.0))
 
     @classmethod
     def from_config(cls, n, config, has_tip=True):
@@ -38,8 +41,3 @@ class Disturbance:
         if unknown:
             raise ValueError(f'disturbance: unknown keys {unknown}; expected some of {list(KEYS)}')
         return cls(n, config.get('joint_torque'), config.get('cartesian_force'), has_tip)
-
-    @property
-    def has_force(self):
-        """True when a non-zero Cartesian force is set."""
-        return bool(np.any(self.cartesian_force != 0.0))

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from robot_control import validation
+
 #: reasons a command is rejected, the keys of :attr:`CommandMapper.rejected`
 REJECT_REASONS = ('unknown_joint', 'missing_joint', 'duplicate_joint', 'length', 'non_finite')
 
@@ -193,7 +195,7 @@ class CommandMapper:
             s[:] = values
         else:
             s[perm] = values
-        if not np.isfinite(s).all():
+        if not validation.finite(s):
             bad = [self.joint_names[i] for i in np.flatnonzero(~np.isfinite(s))]
             return self._reject('non_finite', f'effort: non-finite values for joints {bad}')
         self.tau[:] = s

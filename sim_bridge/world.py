@@ -243,6 +243,7 @@ class World:
         self._wall = self._make_wall() if spec.surface is not None else None
         self.t_ns = 0
         self._tau = np.zeros(self.n)
+        self._tau_list = self._tau.tolist()     # what PyBullet is sent: one conversion per set_torque
         self._brake = None
 
     def _index_joints(self):
@@ -263,6 +264,7 @@ class World:
         self._travel = [travel[j] for j in self._idx]
         self._others = [j for j in movable.values() if j not in self._idx]
         self._limit = np.array([limits[j] for j in self._idx])
+        self._neg_limit = -self._limit
         self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
         tip = self._spec.tip
         if tip is not None and tip not in links:
@@ -339,7 +341,8 @@ class World:
         Non-finite or wrong-length tau -> ValueError; the previous torque stays. Returns the
         clipped torque (what will be applied; while braked it is stored for the release)."""
         tau = validation.vector('tau', tau, self.n)
-        self._tau = np.clip(tau, -self._limit, self._limit)
+        np.minimum(np.maximum(tau, self._neg_limit, out=self._tau), self._limit, out=self._tau)
+        self._tau_list = self._tau.tolist()
         return self._tau.copy()
 
     def set_disturbance(self, joint_torque=None, cartesian_force=None):
@@ -383,14 +386,17 @@ class World:
 
     def _apply_loads(self):
         """Joint torque (actuator unless braked, disturbance, mass-spring) and the Cartesian force."""
-        c, spec = self._client, self._spec
-        tau = self._disturbance.joint_torque + (0.0 if self.braked else self._tau)
-        if spec.spring is not None:
-            x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
-            tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
-        p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=tau.tolist(),
-                                    physicsClientId=c)
-        if self._disturbance.has_force:
+        c, spec, dist = self._client, self._spec, self._disturbance
+        if self._brake is None and spec.spring is None and not dist.has_joint_torque:
+            forces = self._tau_list         # the common case: the actuator torque alone
+        else:
+            tau = dist.joint_torque + (0.0 if self._brake is not None else self._tau)
+            if spec.spring is not None:
+                x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
+                tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
+            forces = tau.tolist()
+        p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=forces, physicsClientId=c)
+        if dist.has_force:
             p.applyExternalForce(self._body, self._tip, self._disturbance.cartesian_force.tolist(),
                                  self.tip_position().tolist(), p.WORLD_FRAME, physicsClientId=c)
 
