@@ -57,16 +57,18 @@ from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_control import conversions, spin
+from robot_control import cdr, conversions, spin
 from robot_control.controller import ControllerCore
 from robot_control.params import ControllerParameters, ParameterError
 from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.throttle import Throttle
 
+NS = conversions.NS_PER_S
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
 #: s of wall time a state waits for the wrench of its own tick (paired streams only, see _take_wrenches)
@@ -121,7 +123,10 @@ class ControllerNode(Node):
         self._joints = cfg.joints
         self._task_axes = cfg.model.task_axes
         self._reader = conversions.JointStateReader(cfg.joints)
-        self._command = conversions.EffortCommand(cfg.joints)
+        # joint_states in and the command out as serialized bytes (robot_control.cdr: a few us each,
+        # where rclpy's conversion of a JointState costs tens)
+        self._state_decoder = cdr.JointStateDecoder()
+        self._command_encoder = cdr.JointStateEncoder(cfg.joints, fields=('effort',))
         self._effort_array = Float64MultiArray()
         self._reference_msg = JointState()
         self._error_msg = JointState()
@@ -155,7 +160,7 @@ class ControllerNode(Node):
         # runs the callbacks in creation order, so the tick's wrench is in place first
         self._ft_sub = None
         self._set_ft_subscription(cfg)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_states, CONTROL_QOS)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_states_raw, CONTROL_QOS, raw=True)
         self.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory, REFERENCE_QOS)
         self.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference, REFERENCE_QOS)
 
@@ -190,6 +195,12 @@ class ControllerNode(Node):
         return self._wrench_seen
 
     # -- state -> command ------------------------------------------------------------------------
+    def _on_joint_states_raw(self, data):
+        """joint_states as DDS delivered it: decoded by robot_control.cdr, or by rclpy when the fast
+        decoder declines (e.g. big-endian CDR from another vendor)."""
+        msg = self._state_decoder.decode(data)
+        self._on_joint_states(deserialize_message(data, JointState) if msg is None else msg)
+
     def _on_joint_states(self, msg):
         """Answer a state with the newest valid ft_sensor/wrench (see _take_wrenches, _answer)."""
         if self._ft_sub is not None:
@@ -225,14 +236,17 @@ class ControllerNode(Node):
                 self._on_ft_sensor(taken[0])
 
     def _answer(self, msg):
+        """State -> command. Only what the command needs runs before it is published (the loop's
+        critical path: in lockstep the simulator waits for it); the bookkeeping follows."""
         t_in = time.perf_counter_ns()
         try:
             q, qd = self._reader.read(msg)
         except ValueError as exc:
             self._reject('joint_states', exc)
             return
-        now_ns = self.get_clock().now().nanoseconds
-        msg_stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
+        stamp = msg.header.stamp
+        msg_stamp_ns = stamp.sec * NS + stamp.nanosec
+        now_ns = None if msg_stamp_ns else self.get_clock().now().nanoseconds
         stamp_ns = msg_stamp_ns or now_ns
         if stamp_ns < 0:
             self._reject('joint_states', f'header.stamp: negative time {stamp_ns * 1e-9:.9f} s')
@@ -245,14 +259,9 @@ class ControllerNode(Node):
                                          'the controller once the watchdog trips)')
             return
         self._last_stamp_ns = stamp_ns
-        self._last_state_steady_ns = self._steady.now().nanoseconds
         if self._epoch_ns is None:
             self._epoch_ns = stamp_ns
-        self._last_state_ns = now_ns
-        recovered = self._tripped
-        if recovered:
-            self._tripped = False
-            self.get_logger().info('joint_states are back: restarting from the current state')
+        recovered, self._tripped = self._tripped, False
         pending = self._pending_force
         if pending is not None and stamp_ns >= pending[0]:
             self._pending_force = None
@@ -262,11 +271,19 @@ class ControllerNode(Node):
         except ValueError as exc:  # defensive: the core falls back to gravity hold before this
             self._reject('joint_states', f'controller: {exc}')
             return
-        self._cmd_pub.publish(self._command.fill(tau, msg_stamp_ns))   # the lockstep handshake: t_k, even 0
+        self._cmd_pub.publish(self._command_encoder.encode(msg_stamp_ns, effort=tau))   # lockstep: t_k, even 0
         if self._array_pub is not None:
             self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
-        self.commands_sent += 1
         self.tick_stats.add(time.perf_counter_ns() - t_in)
+        self._after_answer(stamp_ns, now_ns, recovered)
+
+    def _after_answer(self, stamp_ns, now_ns, recovered):
+        """Bookkeeping of an answered state: watchdog times, counts, ~/reference, ~/error, diagnostics."""
+        self._last_state_steady_ns = time.monotonic_ns()
+        self._last_state_ns = self.get_clock().now().nanoseconds if now_ns is None else now_ns
+        self.commands_sent += 1
+        if recovered:
+            self.get_logger().info('joint_states are back: restarting from the current state')
         guard = self._core.contact_guard
         if guard is not None and guard.trips != self._contact_trips:
             self._contact_trips = guard.trips
@@ -354,7 +371,7 @@ class ControllerNode(Node):
         if self._tripped or self._last_state_ns is None or not self._core.active:
             return
         age = (self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9
-        age = max(age, (self._steady.now().nanoseconds - self._last_state_steady_ns) * 1e-9)   # wall time too
+        age = max(age, (time.monotonic_ns() - self._last_state_steady_ns) * 1e-9)   # wall time too
         if age > self._state_timeout:
             self._tripped = True
             self.trips += 1
@@ -375,7 +392,7 @@ class ControllerNode(Node):
         hw = name
         if self._tripped:
             age = max((self.get_clock().now().nanoseconds - self._last_state_ns) * 1e-9,
-                      (self._steady.now().nanoseconds - self._last_state_steady_ns) * 1e-9)
+                      (time.monotonic_ns() - self._last_state_steady_ns) * 1e-9)
             watchdog = ('ERROR', f'no joint_states for {age:.3f} s (state_timeout {self._state_timeout:g} s): '
                                  'not commanding')
         elif self._last_state_ns is None:

@@ -156,23 +156,6 @@ def joint_state_arrays(msg):
             np.asarray(msg.velocity, dtype=float), np.asarray(msg.effort, dtype=float))
 
 
-class EffortCommand:
-    """The controller's command: JointState with `joints` names and efforts, reused every tick."""
-
-    def __init__(self, joints):
-        self.msg = JointState()
-        self.msg.name = list(joints)
-        self._n = len(joints)
-
-    def fill(self, tau, stamp_ns):
-        """Set efforts (n,) (N m or N) and header.stamp; returns the message."""
-        if len(tau) != self._n:
-            raise ValueError(f'tau: expected length {self._n}, got {len(tau)}')
-        self.msg.effort = _float_array(tau)
-        ns_to_stamp(stamp_ns, self.msg.header.stamp)
-        return self.msg
-
-
 def effort_array(tau, out=None):
     """std_msgs/Float64MultiArray of the efforts in `joints` order (forward effort controller)."""
     msg = Float64MultiArray() if out is None else out

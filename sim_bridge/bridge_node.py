@@ -63,12 +63,13 @@ from rclpy.exceptions import InvalidParameterTypeException, ParameterException, 
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from robot_control import conversions, scenarios, spin
+from robot_control import cdr, conversions, scenarios, spin
 from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
 from robot_control.throttle import Throttle
 from sim_bridge import bridge_params
@@ -135,17 +136,11 @@ class SimBridge(Node):
         n = len(self.joint_names)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
 
-        # -- preallocated messages: one Time shared by every header; numpy views on the arrays
+        # -- preallocated messages: joint_states as serialized bytes (robot_control.cdr: a few us, where
+        # rclpy's conversion of a JointState costs tens), one Time shared by the other headers
+        self._js_encoder = cdr.JointStateEncoder(self.joint_names)
+        self._cmd_decoder = cdr.JointStateDecoder()
         self._stamp = conversions.ns_to_stamp(0)
-        self._js = JointState()
-        self._js.header.stamp = self._stamp
-        self._js.name = list(self.joint_names)
-        self._js.position = [0.0] * n
-        self._js.velocity = [0.0] * n
-        self._js.effort = [0.0] * n
-        self._q_out = np.frombuffer(self._js.position, dtype=np.float64)
-        self._qd_out = np.frombuffer(self._js.velocity, dtype=np.float64)
-        self._tau_out = np.frombuffer(self._js.effort, dtype=np.float64)
         self._clock_msg = ClockMsg()
         self._clock_msg.clock = self._stamp
         self._wrench = WrenchStamped()
@@ -179,8 +174,8 @@ class SimBridge(Node):
         self._pub_js = self.create_publisher(JointState, 'joint_states', CONTROL_PUB_QOS)
         self._pub_wrench = self.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_PUB_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
-        self._sub_js = self.create_subscription(JointState, COMMAND_TOPICS[0], self._on_joint_command,
-                                                CONTROL_QOS)
+        self._sub_js = self.create_subscription(JointState, COMMAND_TOPICS[0], self._on_joint_command_raw,
+                                                CONTROL_QOS, raw=True)
         self._sub_array = self.create_subscription(Float64MultiArray, COMMAND_TOPICS[1], self._on_array_command,
                                                    CONTROL_QOS)
         self._subs = (self._sub_js, self._sub_array)
@@ -290,26 +285,24 @@ class SimBridge(Node):
 
     # -- state out ----------------------------------------------------------------------------
     def _publish_state(self):
+        """Publish the tick's state: joint_states first (in lockstep the controller waits for it),
+        after the tick's ft_sensor/wrench (the controller pairs them by stamp), then /clock."""
         w = self._world
         q, qd, tau = w.state()
-        self._q_out[:] = q
-        self._qd_out[:] = qd
-        self._tau_out[:] = tau
-        sec, nsec = divmod(w.t_ns, NS)
+        t = w.t_ns
         stamp = self._stamp
-        stamp.sec = sec
-        stamp.nanosec = nsec
-        t, clock_ns = w.t_ns, self.cfg.clock_period_ns
-        if not clock_ns or t % clock_ns < self.cfg.control_period_ns:   # the tick that crosses a /clock period
-            self._pub_clock.publish(self._clock_msg)
+        stamp.sec, stamp.nanosec = divmod(t, NS)
         if self._pub_wrench.get_subscription_count():     # VOLATILE: no subscriber, nobody misses it (1 us)
             f, m = w.contact_wrench()
             force, torque = self._force, self._torque
             force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
             torque.x, torque.y, torque.z = float(m[0]), float(m[1]), float(m[2])
             self._pub_wrench.publish(self._wrench)
-        self._pub_js.publish(self._js)
+        self._pub_js.publish(self._js_encoder.encode(t, q, qd, tau))
         self._wall_last_pub = time.monotonic_ns()
+        clock_ns = self.cfg.clock_period_ns
+        if not clock_ns or t % clock_ns < self.cfg.control_period_ns:   # the tick that crosses a /clock period
+            self._pub_clock.publish(self._clock_msg)
         self._deadline.state(t, self._wall_last_pub)
 
     def _step(self):
@@ -319,6 +312,12 @@ class SimBridge(Node):
         self._publish_state()
 
     # -- commands in --------------------------------------------------------------------------
+    def _on_joint_command_raw(self, data):
+        """robot_joint_commands as DDS delivered it: decoded by robot_control.cdr, or by rclpy when
+        the fast decoder declines (e.g. big-endian CDR from another vendor)."""
+        msg = self._cmd_decoder.decode(data)
+        self._on_joint_command(deserialize_message(data, JointState) if msg is None else msg)
+
     def _on_joint_command(self, msg):
         if self.cfg.lockstep:
             stamp = msg.header.stamp
@@ -351,9 +350,9 @@ class SimBridge(Node):
             self._realtime_command(self._mapper.map_array(msg.data), ok)
 
     def _map(self, msg):
-        if isinstance(msg, JointState):
-            return self._mapper.map_named(msg.name, msg.effort)
-        return self._mapper.map_array(msg.data)
+        if isinstance(msg, Float64MultiArray):
+            return self._mapper.map_array(msg.data)
+        return self._mapper.map_named(msg.name, msg.effort)     # a JointState or a cdr.JointStateFrame
 
     def _reject(self, reason):
         if self._reject_throttle.ready(time.monotonic_ns()):

@@ -9,12 +9,12 @@ import time
 
 import numpy as np
 import pytest
-import rclpy
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from bridge_harness import Harness, Probe, run_lockstep
+from cdr_helpers import big_endian
 from robot_control.models import make_model
 from robot_control.qos import CONTROL_QOS
 
@@ -76,6 +76,23 @@ def test_commands_are_mapped_by_name_and_applied(harness):
     assert q[1] - 0.5 == pytest.approx(0.5 * 1.0 * 0.3 ** 2, abs=1e-3)
     assert abs(q[0]) < 1e-9
     np.testing.assert_allclose(effort, POLAR.g(h.state_at(299 * MS)[2]) + [0.0, 2.0], rtol=1e-9)
+
+
+def test_big_endian_commands_are_applied_like_little_endian_ones(harness):
+    """Commands arrive as bytes (robot_control.cdr decodes them); a big-endian writer's (another DDS
+    vendor, another CPU) are left to rclpy's decoder: the same push moves r the same way."""
+    h = harness(None, mode='lockstep')
+
+    def push(t_ns, q, qd):
+        tau = (POLAR.g(q) + [0.0, 2.0]).tolist()
+        h.probe.pub.publish(big_endian({'names': ['theta1', 'r'], 'stamp_ns': t_ns, 'frame_id': '',
+                                        'position': [], 'velocity': [], 'effort': tau}))
+    h.probe.controller = push
+    assert h.run_until(300 * MS)
+    _, _, q, _, effort = h.state_at(300 * MS)
+    assert q[1] - 0.5 == pytest.approx(0.5 * 1.0 * 0.3 ** 2, abs=1e-3)
+    np.testing.assert_allclose(effort, POLAR.g(h.state_at(299 * MS)[2]) + [0.0, 2.0], rtol=1e-9)
+    assert h.bridge.rejected == dict.fromkeys(h.bridge.rejected, 0)
 
 
 def test_effort_array_commands_in_joints_order(harness):

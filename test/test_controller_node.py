@@ -25,6 +25,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
+from cdr_helpers import big_endian
 from robot_control import conversions as cv
 from robot_control.controller_node import ControllerNode
 from robot_control.gains import ServoGains, design
@@ -241,6 +242,22 @@ def test_one_command_per_state_message(ros_context):
             robot.step(ex, POLAR_JOINTS, [0.1, 0.5], [0.0, 0.0], T0_NS + k * DT_NS)
         assert sorted(robot.commands) == [T0_NS + k * DT_NS for k in range(10)]
         assert ctrl.commands_sent == ctrl.core.ticks
+
+
+def test_a_big_endian_state_is_answered_like_a_little_endian_one(ros_context):
+    """joint_states arrive as bytes (robot_control.cdr decodes them); a big-endian writer's (another DDS
+    vendor, another CPU) are left to rclpy's decoder and answered the same."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        little = T0_NS
+        robot.step(ex, POLAR_JOINTS, [0.1, 0.5], [0.2, -0.1], little)
+        big = T0_NS + DT_NS
+        raw = big_endian({'names': list(POLAR_JOINTS), 'stamp_ns': big, 'frame_id': '', 'position': [0.1, 0.5],
+                          'velocity': [0.2, -0.1], 'effort': []})
+        assert ctrl._state_decoder.decode(raw) is None
+        robot.send_until(ex, robot.state_pub, raw, lambda: big in robot.commands)
+        assert robot.commands[big][0] == POLAR_JOINTS
+        np.testing.assert_array_equal(robot.commands[big][3], robot.commands[little][3])
+        assert ctrl.rejected['joint_states'] == 0
 
 
 # -- 2. trajectories -------------------------------------------------------------------------------------

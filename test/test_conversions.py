@@ -107,20 +107,6 @@ def test_reader_needs_unique_joint_names():
         cv.JointStateReader(())
 
 
-def test_effort_command_round_trip():
-    cmd = cv.EffortCommand(JOINTS)
-    tau = np.array([1.25, -3.5])
-    msg = cmd.fill(tau, 5_000_000_001)
-    assert list(msg.name) == list(JOINTS)
-    assert cv.stamp_to_ns(msg.header.stamp) == 5_000_000_001
-    names, _, pos, vel, eff = cv.joint_state_arrays(msg)
-    np.testing.assert_array_equal(eff, tau)
-    assert pos.size == 0 and vel.size == 0
-    assert cmd.fill(2 * tau, 0) is msg
-    with pytest.raises(ValueError, match='^tau:'):
-        cmd.fill(np.zeros(3), 0)
-
-
 def test_effort_array_round_trip():
     tau = RNG.normal(size=7)
     np.testing.assert_array_equal(cv.effort_array_values(cv.effort_array(tau)), tau)
