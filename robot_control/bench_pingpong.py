@@ -3,7 +3,8 @@
     python -m robot_control.bench_pingpong ping --joints theta1 r [--executor events] [--ros-args ...]
     python -m robot_control.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
 
-Same messages, topics, QoS and stamps as the lockstep loop, nothing else: `ping` plays the
+Same messages, topics, QoS (the nodes' publisher and subscription profiles) and stamps as the
+lockstep loop, nothing else: `ping` plays the
 bridge (publishes sensor_msgs/JointState on `joint_states` stamped k * period and publishes the
 next one when the `robot_joint_commands` answer stamped k arrives; re-publishes after 0.1 s
 without an answer, for discovery), `pong` plays the controller (answers each state with a
@@ -19,7 +20,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from robot_control import spin
-from robot_control.qos import CONTROL_QOS
+from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS
 
 NS = 1_000_000_000
 REPUBLISH_S = 0.1
@@ -41,7 +42,7 @@ class Ping(Node):
         self._period_ns = period_ns
         self._state = _joint_state(joints, ('position', 'velocity', 'effort'))
         self._expected = 0
-        self._pub = self.create_publisher(JointState, 'joint_states', CONTROL_QOS)
+        self._pub = self.create_publisher(JointState, 'joint_states', CONTROL_PUB_QOS)
         self.create_subscription(JointState, 'robot_joint_commands', self._on_answer, CONTROL_QOS)
         self._last_pub_ns = 0
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -71,7 +72,7 @@ class Pong(Node):
     def __init__(self, joints):
         super().__init__('pingpong_pong')
         self._command = _joint_state(joints, ('effort',))
-        self._pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_QOS)
+        self._pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_PUB_QOS)
         self.create_subscription(JointState, 'joint_states', self._on_state, CONTROL_QOS)
 
     def _on_state(self, msg):
