@@ -288,12 +288,18 @@ class JointStateEncoder:
         _STAMP.pack_into(self._buf, _BODY, sec, nanosec)
         return bytes(self._buf)
 
-    def _view(self, field, value):
-        """The float64 view of `field` in the message; ValueError naming `field` unless it is
-        listed and `value` has one entry per joint."""
+    def values(self, field):
+        """The float64 (n,) values of `field` inside the message, writable in place: what the next
+        `encode` sends (fill them, then `encode(stamp_ns)`). ValueError naming `field` unless listed."""
         view = self._views.get(field)
         if view is None:
             raise ValueError(f'{field}: not among the encoder\'s fields {tuple(self._views)}')
+        return view
+
+    def _view(self, field, value):
+        """The float64 view of `field` in the message; ValueError naming `field` unless it is
+        listed and `value` has one entry per joint."""
+        view = self.values(field)
         shape = value.shape if isinstance(value, np.ndarray) else np.shape(value)
         if shape != view.shape:
             raise ValueError(f'{field}: expected {self._n} values (one per name), got shape {shape}')

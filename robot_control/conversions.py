@@ -120,8 +120,8 @@ class JointStateReader:
         else:
             np.take(np.asarray(position, dtype=float), index, out=self._q)
             np.take(np.asarray(velocity, dtype=float), index, out=self._qd)
-        if (validation.finite(self._q) and validation.finite(self._qd) and _plausible(self._q)
-                and _plausible(self._qd)):
+        values = self._q.tolist() + self._qd.tolist()    # one Python pass: finite and plausible
+        if math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS:
             return self._q, self._qd
         for field, values in (('position', self._q), ('velocity', self._qd)):
             if not np.isfinite(values).all():

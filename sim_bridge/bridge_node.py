@@ -139,6 +139,7 @@ class SimBridge(Node):
         # -- preallocated messages: joint_states as serialized bytes (robot_control.cdr: a few us, where
         # rclpy's conversion of a JointState costs tens), one Time shared by the other headers
         self._js_encoder = cdr.JointStateEncoder(self.joint_names)
+        self._js_values = tuple(self._js_encoder.values(f) for f in cdr.FIELDS)   # q, qd, tau, filled in place
         self._cmd_decoder = cdr.JointStateDecoder()
         self._stamp = conversions.ns_to_stamp(0)
         self._clock_msg = ClockMsg()
@@ -288,7 +289,7 @@ class SimBridge(Node):
         """Publish the tick's state: joint_states first (in lockstep the controller waits for it),
         after the tick's ft_sensor/wrench (the controller pairs them by stamp), then /clock."""
         w = self._world
-        q, qd, tau = w.state()
+        w.state_into(*self._js_values)
         t = w.t_ns
         stamp = self._stamp
         stamp.sec, stamp.nanosec = divmod(t, NS)
@@ -298,7 +299,7 @@ class SimBridge(Node):
             force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
             torque.x, torque.y, torque.z = float(m[0]), float(m[1]), float(m[2])
             self._pub_wrench.publish(self._wrench)
-        self._pub_js.publish(self._js_encoder.encode(t, q, qd, tau))
+        self._pub_js.publish(self._js_encoder.encode(t))
         self._wall_last_pub = time.monotonic_ns()
         clock_ns = self.cfg.clock_period_ns
         if not clock_ns or t % clock_ns < self.cfg.control_period_ns:   # the tick that crosses a /clock period

@@ -406,11 +406,16 @@ class World:
 
         tau_applied is the actuator torque of the last step: the clipped command, or the brake
         motors' torque while braked (environment loads and disturbances are not included)."""
+        n = self.n
+        return self.state_into(np.empty(n), np.empty(n), np.empty(n))
+
+    def state_into(self, q_out, qd_out, tau_out):
+        """state() written into three float64 (n,) arrays (no allocation); returns them."""
         states = p.getJointStates(self._body, self._idx, physicsClientId=self._client)
-        q = np.array([s[0] for s in states])
-        qd = np.array([s[1] for s in states])
-        tau = np.array([s[3] for s in states]) if self.braked else self._tau.copy()
-        return q, qd, tau
+        q_out[:] = [s[0] for s in states]
+        qd_out[:] = [s[1] for s in states]
+        tau_out[:] = [s[3] for s in states] if self._brake is not None else self._tau
+        return q_out, qd_out, tau_out
 
     def tip_position(self):
         """World position of the tip frame origin, m, (3,)."""

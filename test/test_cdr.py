@@ -171,6 +171,16 @@ def test_encoder_keeps_values_given_as_none_and_starts_at_zero():
     assert (list(msg.position), list(msg.effort)) == ([1.5, -2.0], [5.0, 6.0])
 
 
+def test_values_filled_in_place_are_what_encode_sends():
+    encoder, reference = JointStateEncoder(IIWA), JointStateEncoder(IIWA)
+    q, qd, tau = (encoder.values(f) for f in ('position', 'velocity', 'effort'))
+    values = [np.linspace(-1.0, 1.0, 7) * k for k in (1.0, 2.0, 3.0)]
+    q[:], qd[:], tau[:] = values
+    assert encoder.encode(42) == reference.encode(42, *values)
+    with pytest.raises(ValueError, match='^position:'):
+        JointStateEncoder(IIWA, ('effort',)).values('position')
+
+
 def test_encode_returns_independent_bytes():
     encoder = JointStateEncoder(['a'], ('position',))
     first = encoder.encode(1, position=[1.0])

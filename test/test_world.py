@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pybullet
 import pytest
 
 from robot_control import scenarios
@@ -288,6 +289,25 @@ def test_cartesian_force_disturbance_acts_at_the_tip(make_world):
     iiwa, arm = make_world('iiwa', disturbance={'cartesian_force': [10.0, -5.0, 20.0]}), for_scenario('iiwa')
     expected = arm.J(iiwa.state()[0]).T @ np.array([10.0, -5.0, 20.0])
     assert np.allclose(_measured_generalized_force(iiwa, arm), expected, rtol=1e-5, atol=1e-5)
+
+
+def test_state_into_fills_the_given_arrays_with_pybullets_joint_states(make_world):
+    world = make_world('iiwa', dt=0.001)
+    tau = np.linspace(-5.0, 5.0, 7)
+    world.set_torque(tau)
+    world.step(20)
+    out = tuple(np.full(7, np.nan) for _ in range(3))
+    q, qd, applied = world.state_into(*out)
+    assert all(a is b for a, b in zip((q, qd, applied), out))
+    raw = pybullet.getJointStates(world.body, world._idx, physicsClientId=world.client)
+    np.testing.assert_array_equal(q, [s[0] for s in raw])
+    np.testing.assert_array_equal(qd, [s[1] for s in raw])
+    np.testing.assert_array_equal(applied, tau)
+    world.brake(True)
+    world.step(5)
+    world.state_into(*out)
+    raw = pybullet.getJointStates(world.body, world._idx, physicsClientId=world.client)
+    np.testing.assert_array_equal(out[2], [s[3] for s in raw])   # the brake motors' torque while braked
 
 
 def test_lecture_disturbance_rejection_steady_state_error(make_world):
