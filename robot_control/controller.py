@@ -487,6 +487,7 @@ class ControllerCore:
         self._gains_T = cfg.gains if (~mask).any() else None
         self._gains_N = cfg.force_gains if self._has_force else None
         self._neg_limit = -cfg.effort_limit
+        self._limit_min = float(np.min(cfg.effort_limit))
         guarded = (self._has_force and cfg.law in TASK_LAWS
                    and (math.isfinite(cfg.contact_max_travel) or math.isfinite(cfg.contact_max_speed)))
         self._guard = ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel,
@@ -565,19 +566,30 @@ class ControllerCore:
         except (ValueError, np.linalg.LinAlgError) as exc:
             tau = self._fallback(model, q, exc)
             int_E = None
-        # laws.saturate without its argument checks: tau is finite (law or fallback), the limits
-        # were checked with the config
-        clip_into(tau, cfg.effort_limit, self._neg_limit, self._tau, self._sat)
-        if int_E is not None and dt > 0.0 and np.count_nonzero(self._sat):
+        sat_any = self._saturate(tau, cfg)
+        if sat_any and int_E is not None and dt > 0.0:
             self._back_calculate(cfg, np.array(tau, dtype=float), dt)
         self._tau_prev[:] = self._tau
         self._has_prev = True
         self.ticks += 1
-        self._sat_any = sat_any = np.count_nonzero(self._sat) > 0
+        self._sat_any = sat_any
         if sat_any:
             self.saturated_ticks += 1
             self.saturation_counts += self._sat
         return self._tau
+
+    def _saturate(self, tau, cfg):
+        """self._tau = clip(tau, -effort_limit, effort_limit), self._sat = the clipped entries; True if any.
+
+        laws.saturate without its argument checks: tau is finite (law or fallback), the limits were
+        checked with the config. Most ticks clip nothing: one Python pass over tau finds that."""
+        values = tau.tolist()
+        if max(values) <= self._limit_min and min(values) >= -self._limit_min:
+            self._tau[:] = tau
+            self._sat[:] = False
+            return False
+        clip_into(tau, cfg.effort_limit, self._neg_limit, self._tau, self._sat)
+        return bool(np.count_nonzero(self._sat))
 
     def _fallback(self, model, q, exc):
         self.fallbacks += 1
@@ -614,7 +626,7 @@ class ControllerCore:
         q, qd, x, xd, f, fdot = self._tick
         law = cfg.law
         if law == 'computed_torque':
-            return computed_torque(cfg.model, q, qd, self._q_d, self._qd_d, self._qdd_d, cfg.gains, int_E)
+            return self._computed_torque(cfg, q, qd, int_E)
         if law == 'independent_joint':
             return independent_joint(q, qd, self._q_d, self._qd_d, cfg.gains, int_E)
         if law == 'force':
@@ -624,6 +636,19 @@ class ControllerCore:
         return hybrid(cfg.model, q, qd, pos, vel, acc, pos, vel, acc, self._f_m, self._fdot_m, cfg.force_mask,
                       self._K_e, self._gains_T, self._gains_N, q_posture=self._q_d, k_posture=cfg.posture_gains,
                       int_E=int_E)
+
+    def _computed_torque(self, cfg, q, qd, int_E):
+        """laws.computed_torque on this tick's errors E = q_d - q, Ed = qd_d - qd (update() computed them
+        from checked inputs): v = qdd_d + Kv Ed + Kp E (+ Ki int_E), tau = M v + C qd + g, the same float
+        operations in the same order. A non-finite result goes through the checked law, which names it."""
+        gains = cfg.gains
+        v = self._qdd_d + gains.kv * self._Ed + gains.kp * self._E
+        if int_E is not None:
+            v = v + gains.ki * int_E
+        tau = cfg.model._inverse_dynamics(q, qd, v)
+        if finite(tau):
+            return tau
+        return computed_torque(cfg.model, q, qd, self._q_d, self._qd_d, self._qdd_d, gains, int_E)
 
     def _force_errors(self, f, fdot):
         np.subtract(self._f_d, f, out=self._E)
