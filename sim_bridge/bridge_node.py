@@ -291,9 +291,8 @@ class SimBridge(Node):
         w = self._world
         w.state_into(*self._js_values)
         t = w.t_ns
-        stamp = self._stamp
-        stamp.sec, stamp.nanosec = divmod(t, NS)
         if self._pub_wrench.get_subscription_count():     # VOLATILE: no subscriber, nobody misses it (1 us)
+            self._set_stamp(t)
             f, m = w.contact_wrench()
             force, torque = self._force, self._torque
             force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
@@ -303,8 +302,13 @@ class SimBridge(Node):
         self._wall_last_pub = time.monotonic_ns()
         clock_ns = self.cfg.clock_period_ns
         if not clock_ns or t % clock_ns < self.cfg.control_period_ns:   # the tick that crosses a /clock period
+            self._set_stamp(t)
             self._pub_clock.publish(self._clock_msg)
         self._deadline.state(t, self._wall_last_pub)
+
+    def _set_stamp(self, t_ns):
+        """The Time shared by the /clock and ft_sensor/wrench messages."""
+        self._stamp.sec, self._stamp.nanosec = divmod(t_ns, NS)
 
     def _step(self):
         """One control tick: hold the torque in force for control_period, publish the new state."""
