@@ -282,6 +282,29 @@ def test_same_names_return_the_identical_list_and_a_changed_name_a_new_one():
     assert fourth.name is third.name and fourth.velocity.tolist() == [4.0] * 7
 
 
+def _fields(frame):
+    """Every field of a frame as comparable plain values (None stays None)."""
+    if frame is None:
+        return None
+    return (frame.sec, frame.nanosec, frame.frame_id, list(frame.name), bits(frame.position.tolist()),
+            bits(frame.velocity.tolist()), bits(frame.effort.tolist()))
+
+
+@pytest.mark.parametrize('names', [['theta1', 'r'], IIWA])
+def test_what_a_decoder_remembers_never_changes_what_it_decodes(names):
+    """A decoder that has just read a message of the same layout (names, counts, size) decodes every
+    one-byte change of the next message (stamp, frame_id, names, counts, padding, values) exactly
+    as a fresh decoder does: its shortcuts only skip work whose result they know."""
+    values = [np.arange(len(names)) + k for k in (0.5, 10.5, 20.5)]
+    first, second = (JointStateEncoder(names).encode(t, *values) for t in (1, 2))
+    for i in range(len(second)):
+        for byte in {0, 1, 0x7F, 0xFF, second[i] ^ 0x01}:
+            mutated = second[:i] + bytes([byte]) + second[i + 1:]
+            warm = JointStateDecoder()
+            assert warm.decode(first) is not None
+            assert _fields(warm.decode(mutated)) == _fields(JointStateDecoder().decode(mutated)), (i, byte)
+
+
 def test_names_differing_only_in_padding_are_the_same_names():
     """serialize_message leaves the padding after each name as garbage: it must not defeat the cache."""
     buf = JointStateEncoder(IIWA).encode(1, position=np.arange(7.0))
