@@ -612,7 +612,9 @@ def test_a_second_command_publisher_makes_the_bridge_brake_and_refuse_to_mix(top
         assert status[0] == 'ERROR' and 'refusing to mix' in status[1], status
         # keep the rogue publishing for 1 s of wall time: nothing it sends is applied, the arm is held
         spin_until(ex, lambda: time.monotonic() > t_c_rx + 1.0, 2.0, every=0.005, action=publish)
-        during = [s for s in mon.states if s[0] >= t_c]
+        # the evidence came at sim time t_c, after the state stamped t_c was out: that state's effort is the
+        # command of the step before, which may be a rogue one that came before any evidence
+        during = [s for s in mon.states if s[0] > t_c]
         applied = [s for s in during if np.allclose(s[4], rogue_effort)]
         held = [s for s in mon.states if s[0] >= t_c + 0.2 * NS]
         drift = max(np.linalg.norm(ee(s[2]) - ee(held[0][2])) for s in held)
