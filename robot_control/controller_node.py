@@ -40,6 +40,11 @@ restarts: integral reset, reference = hold the current position (no torque jump 
 law gives for zero error). Note: with use_sim_time, a stopped /clock also stops the watchdog
 (no simulated time passes); /diagnostics runs on the wall clock and keeps reporting.
 
+Speed: joint_states is taken as serialized bytes and read by robot_control.cdr (rclpy decodes
+what that declines, e.g. big-endian CDR); the command is written into a preallocated serialized
+message. Only reading the state, the law and the publish run before the command goes out; the
+bookkeeping (watchdog times, counts, ~/reference, ~/error) follows it.
+
 Parameters: robot_control.params (declared once, validated in one on-set callback whose reason
 names the parameter; applied in the post-set callback by swapping the core's configuration
 snapshot; nothing reads the parameter server per tick).
