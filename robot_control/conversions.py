@@ -31,6 +31,7 @@ NS_PER_S = 1_000_000_000
 #: largest magnitude accepted in a measurement or reference (rad, m, rad/s, m/s, N, ...): beyond it a
 #: value is not physical but a corrupted message, and would overflow the laws or the error integral
 MAX_ABS = 1e6
+_F64 = np.dtype(np.float64)
 
 
 def _plausible(a):
@@ -73,8 +74,8 @@ def s_to_duration(seconds):
 class JointStateReader:
     """Reads q, qd of `joints` out of sensor_msgs/JointState by name, into preallocated arrays.
 
-    read(msg) -> (q, qd): views of internal (n,) buffers, overwritten by the next read (copy
-    them to keep them). The name -> index map is cached while the message's name list does not
+    read(msg) -> (q, qd): (n,) float64 arrays valid until the next read (copy them to keep
+    them): internal buffers, or a robot_control.cdr frame's own read-only arrays. The name -> index map is cached while the message's name list does not
     change, so a steady stream costs one list comparison and two copies per message (plain
     copies when the message lists exactly the controlled joints in their order).
     """
@@ -114,15 +115,21 @@ class JointStateReader:
         if len(velocity) != k:
             raise ValueError(f'velocity: expected one entry per name ({k}), got {len(velocity)}')
         index = self._index_for(names)
-        if self._in_order:
-            self._q[:] = position      # array.array (a received message): one buffer copy
-            self._qd[:] = velocity
+        q, qd = self._q, self._qd
+        if not self._in_order:
+            np.take(np.asarray(position, dtype=float), index, out=q)
+            np.take(np.asarray(velocity, dtype=float), index, out=qd)
+        elif (type(position) is np.ndarray and type(velocity) is np.ndarray and position.dtype is _F64
+              and velocity.dtype is _F64 and position.ndim == velocity.ndim == 1):
+            q, qd = position, velocity    # a robot_control.cdr frame's read-only views: no copy
         else:
-            np.take(np.asarray(position, dtype=float), index, out=self._q)
-            np.take(np.asarray(velocity, dtype=float), index, out=self._qd)
-        values = self._q.tolist() + self._qd.tolist()    # one Python pass: finite and plausible
+            q[:] = position               # array.array (a received message): one buffer copy
+            qd[:] = velocity
+        values = q.tolist() + qd.tolist()    # one Python pass: finite and plausible
         if math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS:
-            return self._q, self._qd
+            return q, qd
+        if q is not self._q:
+            self._q[:], self._qd[:] = q, qd
         for field, values in (('position', self._q), ('velocity', self._qd)):
             if not np.isfinite(values).all():
                 bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]

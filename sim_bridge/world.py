@@ -265,6 +265,7 @@ class World:
         self._others = [j for j in movable.values() if j not in self._idx]
         self._limit = np.array([limits[j] for j in self._idx])
         self._neg_limit = -self._limit
+        self._limit_min = float(np.min(self._limit))
         self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
         tip = self._spec.tip
         if tip is not None and tip not in links:
@@ -341,8 +342,13 @@ class World:
         Non-finite or wrong-length tau -> ValueError; the previous torque stays. Returns the
         clipped torque (what will be applied; while braked it is stored for the release)."""
         tau = validation.vector('tau', tau, self.n)
-        np.minimum(np.maximum(tau, self._neg_limit, out=self._tau), self._limit, out=self._tau)
-        self._tau_list = self._tau.tolist()
+        values = tau.tolist()
+        if max(values) <= self._limit_min and min(values) >= -self._limit_min:   # most commands: nothing to clip
+            self._tau[:] = tau
+            self._tau_list = values
+        else:
+            np.minimum(np.maximum(tau, self._neg_limit, out=self._tau), self._limit, out=self._tau)
+            self._tau_list = self._tau.tolist()
         return self._tau.copy()
 
     def set_disturbance(self, joint_torque=None, cartesian_force=None):

@@ -5,9 +5,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rclpy.serialization import serialize_message
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from robot_control import conversions as cv
+from robot_control.cdr import JointStateDecoder
 
 JOINTS = ('theta1', 'r')
 RNG = np.random.default_rng(20261123)
@@ -87,10 +89,29 @@ def test_reader_reuses_its_buffers():
     (['theta1', 'r'], [0.0, 0.1], [math.inf, 0.0], "^velocity: not finite for 'theta1': inf"),
     (['a', 'b'], [0.0, 0.1], [0.0, 0.0], r"^name: missing controlled joints \['theta1', 'r'\]"),
 ])
-def test_reader_rejects_bad_states_naming_the_field(names, position, velocity, match):
-    msg = cv.joint_state(names, 0, position, velocity)
+@pytest.mark.parametrize('kind', ['message', 'cdr frame'])
+def test_reader_rejects_bad_states_naming_the_field(names, position, velocity, match, kind):
+    msg = as_kind(cv.joint_state(names, 0, position, velocity), kind)
     with pytest.raises(ValueError, match=match):
         cv.JointStateReader(JOINTS).read(msg)
+
+
+def as_kind(msg, kind):
+    """The JointState itself, or what the nodes read: the robot_control.cdr frame of its bytes."""
+    return msg if kind == 'message' else JointStateDecoder().decode(serialize_message(msg))
+
+
+@pytest.mark.parametrize('names', [JOINTS, JOINTS[::-1], ('gripper',) + JOINTS])
+def test_reader_reads_cdr_frames_like_messages(names):
+    reader, frames = cv.JointStateReader(JOINTS), JointStateDecoder()
+    for k in range(3):
+        q = [0.1 * k + i for i in range(len(names))]
+        qd = [-0.2 * k - i for i in range(len(names))]
+        msg = cv.joint_state(names, k, q, qd)
+        want = [a.copy() for a in cv.JointStateReader(JOINTS).read(msg)]
+        got = reader.read(frames.decode(serialize_message(msg)))
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
 
 
 def test_non_finite_values_of_uncontrolled_joints_are_ignored():
