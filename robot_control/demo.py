@@ -54,6 +54,9 @@ STALL_TIMEOUT = 20.0      # s of wall time without simulation progress -> error
 #: holds every later sample until then: waiting longer than a heartbeat period turns a "lost" tail
 #: into a complete run (see robot_control.qos.PUBLISHER_DEPTH).
 REPAIR_TIMEOUT = 8.0
+#: the streams of a tick, each seen once before the run starts (see _run)
+FIRST_TICK = ('/joint_states', '/robot_joint_commands', '/controller/reference', '/controller/error',
+              '/ft_sensor/wrench')
 CONFIRM_TIMEOUT = 10.0    # s for the controller to confirm a reference
 
 
@@ -256,9 +259,12 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
                     and control.traj_pub.get_subscription_count() > 0
                     and control.subscribed('/joint_states', 'controller'))
         control.spin_until(connected, STARTUP_TIMEOUT, alive, 'the controller to connect')
-        # the paused bridge re-publishes its state every 0.1 s: the controller answers while the world stands still
-        control.spin_until(lambda: collector.count('/robot_joint_commands') > 0, STARTUP_TIMEOUT, alive,
-                           'the first command')
+        # the paused bridge re-publishes its state every 0.1 s: the controller answers while the world stands still.
+        # A sample of every stream of the tick must have arrived: a publisher sends ~/reference, ~/error and the
+        # wrench only once its own side has matched the collector (DDS discovers the two sides independently), so
+        # seeing the publisher here is not enough to be sure the first tick's samples are sent
+        control.spin_until(lambda: all(collector.count(t) > 0 for t in FIRST_TICK), STARTUP_TIMEOUT, alive,
+                           'the first state, command, reference, error and wrench')
         if mode == 'lockstep':
             origin_ns = 0   # the bridge steps only once the command for t = 0 has arrived
         else:

@@ -69,6 +69,10 @@ def _complete(result):
     """True when every tick of the run was collected; fails when too many were lost."""
     s = result.summary
     assert s['samples'] >= MIN_TICKS * s['expected_ticks'], f'too many ticks lost: {s["lost_messages"]}'
+    # the demo starts the run once every stream of the tick has delivered a sample: the first tick is never lost
+    first = {topic: lost['ranges_s'][0] for topic, lost in s['lost_messages'].items()
+             if lost['ranges_s'] and lost['ranges_s'][0][0] == 0.0}
+    assert not first, f'the first tick did not reach the collector: {first}'
     if s['samples'] < s['expected_ticks']:
         print(f'warning: {s["experiment"]}: {s["expected_ticks"] - s["samples"]} of {s["expected_ticks"]} ticks '
               'lost on the way to the collector')
