@@ -15,7 +15,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
-         'robot_control.scenarios', 'robot_control.controller']
+         'robot_control.scenarios', 'robot_control.controller', 'robot_control.cdr']
 PYBULLET_ALLOWED = {'sim_bridge.world'}
 
 
