@@ -4,11 +4,11 @@
     python -m robot_control.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
 
 Same messages, topics, QoS (the nodes' publisher and subscription profiles) and stamps as the
-lockstep loop, nothing else: `ping` plays the
-bridge (publishes sensor_msgs/JointState on `joint_states` stamped k * period and publishes the
-next one when the `robot_joint_commands` answer stamped k arrives; re-publishes after 0.1 s
-without an answer, for discovery), `pong` plays the controller (answers each state with a
-JointState of names and efforts carrying the state's stamp). Messages are preallocated.
+lockstep loop, nothing else: `ping` plays the bridge (publishes sensor_msgs/JointState on
+`joint_states` stamped k * period and publishes the next one when the `robot_joint_commands`
+answer stamped k arrives; re-publishes after 0.1 s without an answer, for discovery), `pong`
+plays the controller (answers each state with a JointState of names and efforts carrying the
+state's stamp). Messages are preallocated; both ends use rclpy's own message conversion.
 """
 import argparse
 import sys

@@ -75,9 +75,10 @@ class JointStateReader:
     """Reads q, qd of `joints` out of sensor_msgs/JointState by name, into preallocated arrays.
 
     read(msg) -> (q, qd): (n,) float64 arrays valid until the next read (copy them to keep
-    them): internal buffers, or a robot_control.cdr frame's own read-only arrays. The name -> index map is cached while the message's name list does not
-    change, so a steady stream costs one list comparison and two copies per message (plain
-    copies when the message lists exactly the controlled joints in their order).
+    them): internal buffers, or a robot_control.cdr frame's own read-only arrays. The name ->
+    index map is cached while the message's name list does not change, so a steady stream costs
+    one list comparison and at most two copies per message (none for a cdr frame that lists
+    exactly the controlled joints in their order).
     """
 
     def __init__(self, joints):
