@@ -158,8 +158,9 @@ class JointStateDecoder:
     the previous ones gets the very same `name` list object, without decoding strings. The
     whole block is compared first (one memcmp); if that fails, its parts without the padding,
     which rclpy's serialize_message leaves as garbage. A stream of messages of one layout (same
-    size, frame_id, names and counts, only stamp and values change: a robot's joint_states)
-    is read by comparing the bytes that fix the layout with the last message's.
+    size, frame_id, names and counts, only stamp and values change: a robot's joint_states with
+    positions, velocities and efforts, or a controller's commands with efforts only) is read by
+    comparing the bytes that fix the layout with the last message's.
     """
 
     __slots__ = ('_frame_raw', '_frame_id', '_names_raw', '_names_parts', '_names', '_layout')
@@ -184,14 +185,18 @@ class JointStateDecoder:
         lay = self._layout
         if lay is not None:
             # the remembered layout: same size and bytes from frame_id to the first double (frame_id, names,
-            # first count), same second and third counts; the full decode would read the same offsets
-            size, head, start, shape, strides, fixed, count, second, third = lay
+            # the counts before it), the same counts after it; the full decode would read the same offsets
+            size, head, fixed, count, second, third, start, shape, strides = lay
             if (len(buf) == size and buf.startswith(head) and buf.startswith(fixed, _FRAME_ID)
                     and buf.startswith(count, second) and buf.startswith(count, third)):
                 sec, nanosec = _STAMP.unpack_from(buf, _BODY)
                 rows = np.ndarray(shape, _F8, buf, start, strides)
+                if shape[0] == 3:
+                    position, velocity, effort = rows[0], rows[1], rows[2]
+                else:
+                    position, velocity, effort = _EMPTY, _EMPTY, rows[0]
                 return tuple.__new__(JointStateFrame, (sec, nanosec, self._frame_id, self._names,
-                                                       rows[0], rows[1], rows[2]))
+                                                       position, velocity, effort))
             self._layout = None
         encoding, kind, sec, nanosec = _HEAD.unpack_from(buf)
         if encoding != 0 or kind != 1:
@@ -203,19 +208,25 @@ class JointStateDecoder:
         arrays = _equal_doubles(buf, off, size)
         if arrays is None:
             arrays = _three_doubles(buf, off, size)
-        else:
-            self._remember_layout(buf, off)
+        self._remember_layout(buf, off, arrays)
         return tuple.__new__(JointStateFrame, (sec, nanosec, self._frame_id, self._names) + arrays)
 
-    def _remember_layout(self, buf, off):
-        """After a full decode of three equal counts, the first at `off`: what _decode's first test checks
-        (size, encapsulation, offset of the first double, array shape and strides, the bytes from
-        frame_id to the first double, the count's bytes and the offsets of the second and third)."""
-        (count,) = _U32.unpack_from(buf, off)
-        start = _align8(off + 4)
-        stride = 8 * count + 8
-        self._layout = (len(buf), buf[:_BODY], start, (3, count), (stride, 8), buf[_FRAME_ID:start],
-                        buf[off:off + 4], start + stride - 8, start + 2 * stride - 8)
+    def _remember_layout(self, buf, off, arrays):
+        """After a full decode whose counts start at `off`, the layout _decode's first test checks, for the
+        two layouts of a control loop: three equal counts (a robot's joint_states) and efforts only (a
+        command). That is the size, the encapsulation, the bytes from frame_id to the first double, a
+        count's bytes and where it repeats after that, the first double's offset, the arrays' shape and
+        strides."""
+        n = arrays[2].shape[0]
+        if n and arrays[0].shape[0] == arrays[1].shape[0] == n:
+            start, stride = _align8(off + 4), 8 * n + 8
+            count, repeats, shape = buf[off:off + 4], (start + stride - 8, start + 2 * stride - 8), (3, n)
+        elif n and not arrays[0].shape[0] and not arrays[1].shape[0]:
+            start, stride = _align8(off + 12), 8 * n
+            count, repeats, shape = b'', (0, 0), (1, n)     # every count is before the data: nothing repeats
+        else:
+            return
+        self._layout = (len(buf), buf[:_BODY], buf[_FRAME_ID:start], count, *repeats, start, shape, (stride, 8))
 
     def _frame_id_end(self, buf, size):
         """Reads frame_id into the cache (unless unchanged); returns the offset after it."""
