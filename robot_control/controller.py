@@ -72,6 +72,7 @@ import numpy as np
 from robot_control import validation
 from robot_control.gains import ServoGains
 from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, independent_joint
+from robot_control.laws.computed_torque import torque_of_errors
 from robot_control.laws.saturation import clip_into
 from robot_control.laws.servo import limit_vector
 from robot_control.models.base import RobotModel
@@ -638,15 +639,13 @@ class ControllerCore:
                       int_E=int_E)
 
     def _computed_torque(self, cfg, q, qd, int_E):
-        """laws.computed_torque on this tick's errors E = q_d - q, Ed = qd_d - qd (update() computed them
-        from checked inputs): v = qdd_d + Kv Ed + Kp E (+ Ki int_E), tau = M v + C qd + g, the same float
-        operations in the same order. A non-finite result goes through the checked law, which names it."""
+        """laws.computed_torque on this tick's errors E = q_d - q, Ed = qd_d - qd, which update() computed
+        from checked inputs (the law's own fast path, without re-checking them). A non-finite result goes
+        through the checked law, which names it."""
         gains = cfg.gains
-        v = self._qdd_d + gains.kv * self._Ed + gains.kp * self._E
-        if int_E is not None:
-            v = v + gains.ki * int_E
-        tau = cfg.model._inverse_dynamics(q, qd, v)
-        if finite(tau):
+        tau = torque_of_errors(cfg.model, q, qd, self._qdd_d, self._E, self._Ed, (gains.kp, gains.kv, gains.ki),
+                               int_E)
+        if tau is not None:
             return tau
         return computed_torque(cfg.model, q, qd, self._q_d, self._qd_d, self._qdd_d, gains, int_E)
 

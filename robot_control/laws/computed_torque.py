@@ -17,15 +17,25 @@ def computed_torque(model, q, qd, q_d, qd_d, qdd_d, gains, int_E=None):
     if (g is not None and is_vector(q, n) and is_vector(qd, n) and is_vector(q_d, n) and is_vector(qd_d, n)
             and is_vector(qdd_d, n) and (int_E is None or is_vector(int_E, n))
             and all_finite(q, qd, q_d, qd_d, qdd_d) and (int_E is None or finite(int_E))):
-        kp, kv, ki = g
-        v = qdd_d + kv * (qd_d - qd) + kp * (q_d - q)
-        if int_E is not None:
-            v = v + ki * int_E
-        if finite(v):  # else an overflow: the checked path names it
-            tau = model._inverse_dynamics(q, qd, v)
-            if finite(tau):
-                return tau
+        tau = torque_of_errors(model, q, qd, qdd_d, q_d - q, qd_d - qd, g, int_E)
+        if tau is not None:
+            return tau
     return _computed_torque_checked(model, q, qd, q_d, qd_d, qdd_d, gains, int_E)
+
+
+def torque_of_errors(model, q, qd, qdd_d, E, Ed, gains, int_E=None):
+    """The law on checked arrays and errors E = q_d - q, Ed = qd_d - qd, gains (kp, kv, ki): M v + C qd + g,
+    v = qdd_d + Kv Ed + Kp E (+ Ki int_E); None when v or tau is not finite (an overflow: the checked
+    law names it)."""
+    kp, kv, ki = gains
+    v = qdd_d + kv * Ed + kp * E
+    if int_E is not None:
+        v = v + ki * int_E
+    if finite(v):
+        tau = model._inverse_dynamics(q, qd, v)
+        if finite(tau):
+            return tau
+    return None
 
 
 def _computed_torque_checked(model, q, qd, q_d, qd_d, qdd_d, gains, int_E):
