@@ -4,6 +4,7 @@ In-process tests put a publisher node and the recorder node in one fresh context
 deadlines; CLI tests run `python -m robot_control.record` as a subprocess against a publisher here.
 """
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -477,6 +478,17 @@ def start_cli(args):
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
+def read_available(proc, chunks):
+    """Appends what proc's stdout holds now (without blocking) to `chunks`; returns all read so far."""
+    fd = proc.stdout.fileno()
+    while select.select([fd], [], [], 0)[0]:
+        data = os.read(fd, 65536)
+        if not data:
+            break
+        chunks.append(data.decode(errors='replace'))
+    return ''.join(chunks)
+
+
 def stop_proc(proc):
     if proc.poll() is None:
         proc.kill()
@@ -533,15 +545,19 @@ def test_cli_signal_closes_a_readable_bag(ticker, tmp_path, signum):
     executor, pub, state = ticker
     bag = tmp_path / 'bag'
     proc = start_cli(['-o', str(bag), 'joint_states'])
+    early = []
     try:
-        assert spin_until(executor, lambda: pub.get_subscription_count() >= 1 or proc.poll() is not None, 30.0)
+        # the recorder's own subscription must have matched (it says so): our writer seeing its reader does
+        # not mean its reader sees our writer yet, DDS discovers the two sides apart
+        assert spin_until(executor, lambda: 'matched 1 publisher' in read_available(proc, early)
+                          or proc.poll() is not None, 30.0)
         assert proc.poll() is None
         first = state['i']
         assert spin_until(executor, lambda: state['i'] >= first + 40, 10.0)
         proc.send_signal(signum)
         stopped = spin_until(executor, lambda: proc.poll() is not None, 20.0)
     finally:
-        out = stop_proc(proc)
+        out = read_available(proc, early) + stop_proc(proc)
     assert stopped and proc.returncode == 0 and 'closed' in out, out
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['storage_identifier'] == 'mcap'
