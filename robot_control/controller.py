@@ -286,6 +286,7 @@ class ControllerCore:
         self._cfg = config
         n = config.n
         self._q_d, self._qd_d, self._qdd_d = np.zeros(n), np.zeros(n), np.zeros(n)
+        self._held = None       # the trajectory whose end state (held after t_end) the three arrays hold
         self._tau = np.zeros(n)
         self._tau_prev = np.zeros(n)
         self._has_prev = False
@@ -480,6 +481,7 @@ class ControllerCore:
         self._fidx = np.flatnonzero(mask)                     # force axes among the task axes
         self._force_axes = tuple(enumerate(self._fidx.tolist()))   # (j, i): force axis j is task axis i
         self._has_force = self._fidx.size > 0
+        self._samples_force = self._has_force and cfg.law in TASK_LAWS   # the joint laws use no force reference
         self._f_m, self._fdot_m = np.zeros(m), np.zeros(m)    # f, fdot on the force axes, 0 elsewhere
         K_e = np.ones(m)
         K_e[self._fidx] = cfg.k_e
@@ -501,14 +503,19 @@ class ControllerCore:
         f_meas is required with force_feedback 'sensor' when the law uses forces. The result is
         finite and within +-effort_limit; it is an internal buffer overwritten next tick.
         """
-        cfg = self._cfg
-        model = cfg.model
         n = self._n
         if not (type(t) is float and math.isfinite(t)):
             t = validation.scalar('t', t)
         if not (is_vector(q, n) and is_vector(qd, n) and finite(q) and finite(qd)):
             q = validation.vector('q', q, n)
             qd = validation.vector('qd', qd, n)
+        return self.update_checked(t, q, qd, f_meas)
+
+    def update_checked(self, t, q, qd, f_meas=None):
+        """update() on inputs known to be valid, without checking them again: t a finite float, q and
+        qd finite float64 (n,) arrays, as conversions.JointStateReader.read returns them."""
+        cfg = self._cfg
+        model = cfg.model
         if cfg is not self._plan_for:
             self._plan(cfg)
         law = cfg.law
@@ -532,8 +539,11 @@ class ControllerCore:
         self._t = t
         if self._pending is not None and t >= self._pending.t0:
             self._traj, self._pending = self._pending, None
-        self._traj.sample_into(t, self._q_d, self._qd_d, self._qdd_d)
-        if self._has_force:
+        traj = self._traj
+        if not (t > traj.t_end and self._held is traj):   # else the buffers hold its end state already
+            traj.sample_into(t, self._q_d, self._qd_d, self._qdd_d)
+            self._held = traj if t > traj.t_end else None
+        if self._samples_force:
             self._force_traj.sample_into(t, self._f_d, self._fd_d, self._fdd_d)
             if self._guard is not None:
                 self._guard_contact(x, xd, f_axes)
@@ -587,7 +597,8 @@ class ControllerCore:
         values = tau.tolist()
         if max(values) <= self._limit_min and min(values) >= -self._limit_min:
             self._tau[:] = tau
-            self._sat[:] = False
+            if self._sat_any:
+                self._sat[:] = False
             return False
         clip_into(tau, cfg.effort_limit, self._neg_limit, self._tau, self._sat)
         return bool(np.count_nonzero(self._sat))

@@ -272,7 +272,7 @@ class ControllerNode(Node):
             self._pending_force = None
             self._core.set_force_reference(pending[1])
         try:
-            tau = self._core.update((stamp_ns - self._epoch_ns) * 1e-9, q, qd, self._f_meas)
+            tau = self._core.update_checked((stamp_ns - self._epoch_ns) * 1e-9, q, qd, self._f_meas)
         except ValueError as exc:  # defensive: the core falls back to gravity hold before this
             self._reject('joint_states', f'controller: {exc}')
             return

@@ -103,18 +103,22 @@ CASES = {
 }
 
 
+@pytest.mark.parametrize('entry', ['update', 'update_checked'])
 @pytest.mark.parametrize('integral', [False, True])
 @pytest.mark.parametrize('case', sorted(CASES))
-def test_every_tick_equals_the_library_law(case, integral):
+def test_every_tick_equals_the_library_law(case, integral, entry):
+    """Also through update_checked, the node's entry for states JointStateReader has checked; the
+    move ends at tick 50 (move_time 0.1 s): the last ticks hold the goal."""
     make, q0, f_meas = CASES[case]
     core = ControllerCore(make(integral))
+    update = getattr(core, entry)
     n = q0.shape[0]
     if core.config.force_axes:
         core.set_force_reference([4.0])
     core.set_goal(q0 + 0.05)
     for k in range(60):
         q, qd = random_state(n, 0.002, q0)
-        tau = core.update(k * DT, q, qd, f_meas)
+        tau = update(k * DT, q, qd, f_meas)
         if case == 'computed_torque':   # the core's own evaluation does the law's float operations in order
             np.testing.assert_array_equal(tau, _library_tau(core, q, qd, f_meas))
         else:
@@ -122,6 +126,29 @@ def test_every_tick_equals_the_library_law(case, integral):
         assert np.all(np.abs(tau) <= core.config.effort_limit)
     if integral:
         assert np.any(core.integral_value != 0.0)
+
+
+def test_after_a_move_the_reference_holds_its_goal_until_the_next_move():
+    """After t_end the reference is the goal at rest, tick after tick (the core then skips
+    re-sampling); a new goal starts from there and ends at the new goal."""
+    core = ControllerCore(polar_config(move_time=0.05))
+    q0 = np.array([0.2, 0.6])
+    first, second = q0 + 0.1, q0 - 0.2
+    core.set_goal(first)
+    for k in range(101):
+        core.update_checked(k * DT, q0, np.zeros(2))
+        if k > 50:
+            q_d, qd_d, qdd_d = core.joint_reference
+            np.testing.assert_allclose(q_d, first, rtol=0, atol=1e-12)
+            assert not qd_d.any() and not qdd_d.any()
+    core.set_goal(second)
+    core.update_checked(0.101, q0, np.zeros(2))
+    q_d, qd_d, _ = core.joint_reference
+    assert 0.0 < np.abs(q_d - first).max() < 1e-3 and np.all(np.sign(qd_d) == np.sign(second - first))
+    for k in range(102, 200):
+        core.update_checked(k * DT, q0, np.zeros(2))
+    np.testing.assert_allclose(core.joint_reference[0], second, rtol=0, atol=1e-12)
+    assert not core.joint_reference[1].any()
 
 
 def test_reference_follows_the_goal_move_from_the_start_position():
