@@ -29,6 +29,7 @@ import numpy as np
 
 NS_PER_S = 1_000_000_000
 INT32_MAX = 2 ** 31 - 1
+_MAX_STAMP_NS = (INT32_MAX + 1) * NS_PER_S - 1     # the last stamp whose seconds fit in int32
 FIELDS = ('position', 'velocity', 'effort')
 
 _F8 = np.dtype('<f8')
@@ -318,13 +319,15 @@ class JointStateEncoder:
         Each listed field given as a sequence of len(names) floats (rad or m; rad/s or m/s;
         N*m or N) replaces its values; None keeps the previous ones. ValueError names the
         offending argument; nothing is written then. Returns a fresh bytes object."""
-        writes = []
-        for field, value in zip(FIELDS, (position, velocity, effort)):
-            if value is not None:
-                writes.append((self._view(field, value), value))
-        sec, nanosec = _stamp(stamp_ns)
-        for view, value in writes:
-            view[...] = value
+        if type(stamp_ns) is int and 0 <= stamp_ns <= _MAX_STAMP_NS:
+            sec, nanosec = divmod(stamp_ns, NS_PER_S)
+        else:
+            sec, nanosec = _stamp(stamp_ns)
+        if position is not None or velocity is not None or effort is not None:
+            writes = [(self._view(field, value), value)
+                      for field, value in zip(FIELDS, (position, velocity, effort)) if value is not None]
+            for view, value in writes:
+                view[...] = value
         _STAMP.pack_into(self._buf, _BODY, sec, nanosec)
         return bytes(self._buf)
 

@@ -30,6 +30,18 @@ def all_finite(*arrays):
     return math.isfinite(total) or all(bool(np.isfinite(a).all()) for a in arrays)
 
 
+def float_list(value, n):
+    """A copy of `value` when it is a list of n finite real numbers, else None (vector() then names
+    what is wrong): a command's fast path, without an array. One sum checks them all."""
+    if type(value) is not list or len(value) != n:
+        return None
+    try:
+        ok = math.isfinite(sum(value))
+    except TypeError:           # a str, a complex, None ...
+        return None
+    return list(value) if ok else None
+
+
 def vector(name, value, n=None):
     """Return `value` as a finite float64 1-D array of length `n` (any length if n is None)."""
     if (type(value) is np.ndarray and value.dtype is F64 and value.ndim == 1

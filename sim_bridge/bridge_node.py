@@ -156,7 +156,6 @@ class SimBridge(Node):
 
         # -- loop state
         self._mapper = CommandMapper(self.joint_names)
-        self._cmd = self._mapper.tau                      # the last valid command, (n,)
         self._have_cmd = False
         self._brake_reason = ''                           # '' = brakes released
         self._brake_events = 0
@@ -179,6 +178,7 @@ class SimBridge(Node):
         self._pub_js = self.create_publisher(JointState, 'joint_states', CONTROL_PUB_QOS)
         self._pub_wrench = self.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_PUB_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
+        self._wrench_wanted = False                       # ft_sensor/wrench has a subscriber (see _publish_state)
         self._sub_js = self.create_subscription(JointState, COMMAND_TOPICS[0], self._on_joint_command_raw,
                                                 CONTROL_QOS, raw=True)
         self._sub_array = self.create_subscription(Float64MultiArray, COMMAND_TOPICS[1], self._on_array_command,
@@ -289,13 +289,20 @@ class SimBridge(Node):
         return max(self.cfg.control_period / self.cfg.real_time_factor, 0.0005)
 
     # -- state out ----------------------------------------------------------------------------
-    def _publish_state(self):
+    def _publish_state(self, in_loop=False):
         """Publish the tick's state: joint_states first (in lockstep the controller waits for it),
-        after the tick's ft_sensor/wrench (the controller pairs them by stamp), then /clock."""
+        after the tick's ft_sensor/wrench (the controller pairs them by stamp), then /clock.
+
+        ft_sensor/wrench is VOLATILE: without a subscriber nobody misses it. `in_loop` (a tick of the
+        running loop): whether it has one was counted after the previous state, off the loop's critical
+        path (a count costs about 4 us there), so a subscriber that appears mid-run gets the wrench from
+        the next tick on; a first or re-published state counts now."""
         w = self._world
         w.state_into(*self._js_values)
         t = w.t_ns
-        if self._pub_wrench.get_subscription_count():     # VOLATILE: no subscriber, nobody misses it (1 us)
+        if not in_loop:
+            self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0
+        if self._wrench_wanted:
             self._set_stamp(t)
             f, m = w.contact_wrench()
             force, torque = self._force, self._torque
@@ -309,6 +316,7 @@ class SimBridge(Node):
             self._set_stamp(t)
             self._pub_clock.publish(self._clock_msg)
         self._deadline.state(t, self._wall_last_pub)
+        self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0    # for the next tick
 
     def _set_stamp(self, t_ns):
         """The Time shared by the /clock and ft_sensor/wrench messages."""
@@ -318,7 +326,7 @@ class SimBridge(Node):
         """One control tick: hold the torque in force for control_period, publish the new state."""
         self._world.step(self.cfg.substeps)
         self._ticks += 1
-        self._publish_state()
+        self._publish_state(in_loop=True)
 
     # -- commands in --------------------------------------------------------------------------
     def _on_joint_command_raw(self, data):
@@ -330,13 +338,14 @@ class SimBridge(Node):
     def _on_joint_command(self, msg):
         if self.cfg.lockstep:
             stamp = msg.header.stamp
-            verdict = self._gate.classify(stamp.sec, stamp.nanosec)
+            t_cmd = stamp_ns(stamp.sec, stamp.nanosec)
+            verdict = self._gate.classify_ns(t_cmd)
             if verdict != LockstepGate.MATCH:
                 if verdict == LockstepGate.LATE:      # answered twice: a re-published state or a 2nd controller
                     self._refresh_publisher_counts()
-                self._guard.check(0, self._world.t_ns, stamp_ns(stamp.sec, stamp.nanosec))
+                self._guard.check(0, self._world.t_ns, t_cmd)
                 return
-            ok = self._guard.check(0, self._world.t_ns, stamp_ns(stamp.sec, stamp.nanosec))
+            ok = self._guard.check(0, self._world.t_ns, t_cmd)
             if self._paused:
                 self._pending = (msg, ok)
                 return
@@ -379,7 +388,7 @@ class SimBridge(Node):
             if self._brake_reason:
                 self._set_brakes('')
             else:
-                self._world.set_torque(self._cmd)
+                self._world.set_torque(self._mapper.values)
         elif not self._have_cmd:
             self._set_brakes('no valid command yet')
         self._step()
@@ -398,7 +407,7 @@ class SimBridge(Node):
         if self._brake_reason:
             self._update_brakes(t)
         if not self._brake_reason:
-            self._world.set_torque(self._cmd)
+            self._world.set_torque(self._mapper.values)
 
     # -- brakes -------------------------------------------------------------------------------
     def _update_brakes(self, t_ns, log=True):
@@ -423,7 +432,7 @@ class SimBridge(Node):
             return
         self._world.brake(on)
         if not on:
-            self._world.set_torque(self._cmd)
+            self._world.set_torque(self._mapper.values)
         self._brake_events += 1
         if log and self._brake_throttle.ready(time.monotonic_ns()):
             if on:
@@ -495,7 +504,7 @@ class SimBridge(Node):
         w.reset()                                         # keeps the disturbance in force
         cfg = self.cfg
         self._ticks = 0
-        self._cmd[:] = 0.0
+        self._mapper.clear()
         self._have_cmd = False
         self._pending = None
         self._watchdog.clear()

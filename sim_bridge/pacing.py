@@ -10,7 +10,8 @@ import math
 
 import numpy as np
 
-from robot_control import validation
+_F64 = np.dtype(np.float64)
+
 
 #: reasons a command is rejected, the keys of :attr:`CommandMapper.rejected`
 REJECT_REASONS = ('unknown_joint', 'missing_joint', 'duplicate_joint', 'length', 'non_finite')
@@ -114,7 +115,10 @@ class LockstepGate:
         self.expected_ns = t_ns
 
     def classify(self, sec, nanosec):
-        t = sec * 1_000_000_000 + nanosec
+        return self.classify_ns(sec * 1_000_000_000 + nanosec)
+
+    def classify_ns(self, t):
+        """classify() of a stamp in integer nanoseconds."""
         if t == self.expected_ns:
             return self.MATCH
         if t < self.expected_ns:
@@ -131,20 +135,29 @@ class CommandMapper:
     for std_msgs/Float64MultiArray (in `joints` order). Both fill the scratch vector ``tau`` and
     return None, or leave the last accepted command untouched and return a reason starting with the
     field name. Counts per reason are in ``rejected``. The name -> index permutation is cached for
-    the last name list seen, so a steady stream of commands allocates nothing but the view.
+    the last name list seen. ``values`` is the accepted command as a list of floats (what the
+    simulator is sent, zeros before the first), ``tau`` a copy of it as an array.
     """
 
     def __init__(self, joint_names):
         self.joint_names = tuple(joint_names)
         self.n = len(self.joint_names)
         self._index = {name: i for i, name in enumerate(self.joint_names)}
-        self.tau = np.zeros(self.n)
-        self._scratch = np.zeros(self.n)
+        self.values = [0.0] * self.n
         self._cached_names = None
-        self._cached_perm = None       # None for the identity permutation
+        self._cached_perm = None       # None for the identity permutation, else msg index of each joint
         self.rejected = dict.fromkeys(REJECT_REASONS, 0)
         self.accepted = 0
         self.last_reason = ''
+
+    @property
+    def tau(self):
+        """The last accepted command, (n,) array (a copy)."""
+        return np.array(self.values)
+
+    def clear(self):
+        """Forget the last accepted command: zeros."""
+        self.values = [0.0] * self.n
 
     @property
     def rejected_total(self):
@@ -167,9 +180,10 @@ class CommandMapper:
         if len(names) != n:
             missing = [s for s in self.joint_names if s not in names]
             return None, self._reject('missing_joint', f'name: missing joints {missing}')
-        perm = [self._index[s] for s in names]
+        where = {s: i for i, s in enumerate(names)}
+        perm = [where[s] for s in self.joint_names]
         self._cached_names = list(names)
-        self._cached_perm = None if perm == list(range(n)) else np.array(perm, dtype=np.intp)
+        self._cached_perm = None if perm == list(range(n)) else perm
         return True, None
 
     def map_named(self, names, efforts):
@@ -190,15 +204,14 @@ class CommandMapper:
         return self._commit(values, None)
 
     def _commit(self, values, perm):
-        s = self._scratch
-        if perm is None:
-            s[:] = values
-        else:
-            s[perm] = values
-        if not validation.finite(s):
-            bad = [self.joint_names[i] for i in np.flatnonzero(~np.isfinite(s))]
-            return self._reject('non_finite', f'effort: non-finite values for joints {bad}')
-        self.tau[:] = s
+        v = values.tolist() if type(values) is np.ndarray and values.dtype is _F64 else [float(x) for x in values]
+        if perm is not None:
+            v = [v[i] for i in perm]
+        if not math.isfinite(sum(v)):   # one C pass; entry by entry only for a NaN, an inf or an overflow
+            bad = [name for name, x in zip(self.joint_names, v) if not math.isfinite(x)]
+            if bad:
+                return self._reject('non_finite', f'effort: non-finite values for joints {bad}')
+        self.values = v
         self.accepted += 1
         return None
 
@@ -225,6 +238,7 @@ class SourceGuard:
     def __init__(self, timeout_ns, topics):
         self.timeout_ns = int(timeout_ns)
         self.topics = tuple(topics)
+        self._others = [tuple(j for j in range(len(self.topics)) if j != i) for i in range(len(self.topics))]
         self.counts = [0] * len(self.topics)
         self.allowed = [1] * len(self.topics)     # publishers tolerated (1 + presumed-dead replaced ones)
         self.replacements = 0
@@ -275,10 +289,12 @@ class SourceGuard:
             self._evidence(t_ns, f'{n} publishers on {self.topics[topic]}')
         elif n > 1 and stamp_ns is not None and last is not None and stamp_ns <= last:
             self._evidence(t_ns, f'{n} publishers on {self.topics[topic]} sending interleaved commands')
-        for other, t_other in enumerate(self._last_t):
-            if other != topic and t_other is not None and 0 <= t_ns - t_other <= self.timeout_ns:
+        last_t = self._last_t
+        for other in self._others[topic]:
+            t_other = last_t[other]
+            if t_other is not None and 0 <= t_ns - t_other <= self.timeout_ns:
                 self._evidence(t_ns, f'commands on both {self.topics[other]} and {self.topics[topic]}')
-        self._last_t[topic] = t_ns
+        last_t[topic] = t_ns
         return self._evidence_ns is None or not self.in_conflict(t_ns)
 
 

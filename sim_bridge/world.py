@@ -341,13 +341,14 @@ class World:
 
         Non-finite or wrong-length tau -> ValueError; the previous torque stays. Returns the
         clipped torque (what will be applied; while braked it is stored for the release)."""
-        tau = validation.vector('tau', tau, self.n)
-        values = tau.tolist()
+        values = validation.float_list(tau, self.n)       # the bridge's commands: a list, no array
+        if values is None:
+            values = validation.vector('tau', tau, self.n).tolist()
         if max(values) <= self._limit_min and min(values) >= -self._limit_min:   # most commands: nothing to clip
-            self._tau[:] = tau
+            self._tau[:] = values
             self._tau_list = values
         else:
-            np.minimum(np.maximum(tau, self._neg_limit, out=self._tau), self._limit, out=self._tau)
+            np.minimum(np.maximum(values, self._neg_limit, out=self._tau), self._limit, out=self._tau)
             self._tau_list = self._tau.tolist()
         return self._tau.copy()
 
@@ -383,7 +384,7 @@ class World:
     # -- stepping ------------------------------------------------------------------------------
     def step(self, k=1):
         """Advance k physics steps of dt with the held torque (re-sent before every step)."""
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        if type(k) is not int and (isinstance(k, bool) or not isinstance(k, np.integer)) or k < 1:
             raise ValueError(f'k: expected a positive integer number of steps, got {k!r}')
         for _ in range(int(k)):
             self._apply_loads()
@@ -417,10 +418,10 @@ class World:
 
     def state_into(self, q_out, qd_out, tau_out):
         """state() written into three float64 (n,) arrays (no allocation); returns them."""
-        states = p.getJointStates(self._body, self._idx, physicsClientId=self._client)
-        q_out[:] = [s[0] for s in states]
-        qd_out[:] = [s[1] for s in states]
-        tau_out[:] = [s[3] for s in states] if self._brake is not None else self._tau
+        q, qd, _, applied = zip(*p.getJointStates(self._body, self._idx, physicsClientId=self._client))
+        q_out[:] = q
+        qd_out[:] = qd
+        tau_out[:] = applied if self._brake is not None else self._tau_list
         return q_out, qd_out, tau_out
 
     def tip_position(self):

@@ -252,6 +252,21 @@ def test_brakes_hold_against_gravity_and_release(make_world, name):
     assert np.abs(world.state()[0] - q0).max() > 1e-3      # the zero-torque command applies again
 
 
+def test_a_list_command_is_held_as_a_copy(make_world):
+    """set_torque keeps its own copy of a list (the bridge's commands are lists): changing the
+    caller's list afterwards changes nothing; numbers that are not floats are taken as floats."""
+    world, model = make_world('polar_two_link'), for_scenario('polar_two_link')
+    tau = model.g(world.state()[0]).tolist()
+    held = world.set_torque(tau)
+    tau[1] = 1e3
+    world.step(200)
+    q, qd, applied = world.state()
+    assert np.array_equal(applied, held) and np.abs(qd).max() < 1e-9
+    world.set_torque([0, 0])
+    world.step(1)
+    assert world.state()[2].tolist() == [0.0, 0.0]
+
+
 def test_torque_set_while_braked_applies_on_release(make_world):
     world, model = make_world('polar_two_link'), for_scenario('polar_two_link')
     world.brake(True)
@@ -367,7 +382,8 @@ def test_bad_construction_raises_value_error_naming_the_argument(kwargs, argumen
 def test_bad_commands_are_rejected_and_never_reach_pybullet(make_world):
     world, model = make_world('polar_two_link'), for_scenario('polar_two_link')
     held = world.set_torque(model.g(world.state()[0]))
-    for bad in ([1.0], [1.0, 2.0, 3.0], [np.nan, 0.0], [0.0, np.inf], 'tau', [[1.0, 2.0]]):
+    for bad in ([1.0], [1.0, 2.0, 3.0], [np.nan, 0.0], [0.0, np.inf], 'tau', [[1.0, 2.0]], ['a', 0.0],
+                [None, 0.0], [1j, 0.0], (np.nan, 0.0)):
         with pytest.raises(ValueError, match='^tau'):
             world.set_torque(bad)
     world.step(500)
