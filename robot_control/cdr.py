@@ -41,6 +41,7 @@ _STAMP = struct.Struct('<iI')
 _BODY = 4                             # body start: CDR alignment counts from here
 _FRAME_ID = 12                        # offset of the frame_id length
 _ERRORS = (struct.error, ValueError, IndexError, TypeError, OverflowError)
+_SEQUENCES = (tuple, list)
 
 
 def _align4(off):
@@ -59,7 +60,7 @@ class JointStateFrame(tuple):
     `.header.stamp.sec` (s), `.header.stamp.nanosec` (ns), `.header.frame_id` (str), `.name`
     (list of str: may be the decoder's cached list, do not modify), `.position` (rad or m),
     `.velocity` (rad/s or m/s), `.effort` (N*m or N): read-only float64 1-D arrays, possibly
-    views into the received buffer. To stay light, `.header` and `.header.stamp` are the frame
+    views into the received buffer (tuples of float from a decoder made with arrays=False). To stay light, `.header` and `.header.stamp` are the frame
     itself (one object per message), so `.sec`, `.nanosec` and `.frame_id` also read directly.
     """
 
@@ -76,8 +77,8 @@ class JointStateFrame(tuple):
 
     def __repr__(self):
         return (f'JointStateFrame(sec={self.sec}, nanosec={self.nanosec}, frame_id={self.frame_id!r}, '
-                f'name={self.name!r}, position={self.position.tolist()}, velocity={self.velocity.tolist()}, '
-                f'effort={self.effort.tolist()})')
+                f'name={self.name!r}, position={list(self.position)}, velocity={list(self.velocity)}, '
+                f'effort={list(self.effort)})')
 
 
 def _string(buf, off, size):
@@ -162,17 +163,21 @@ class JointStateDecoder:
     size, frame_id, names and counts, only stamp and values change: a robot's joint_states with
     positions, velocities and efforts, or a controller's commands with efforts only) is read by
     comparing the bytes that fix the layout with the last message's.
+
+    `arrays=False`: the frames' position, velocity and effort are tuples of float instead of
+    arrays (read with struct, no numpy: for a consumer that wants Python floats anyway).
     """
 
-    __slots__ = ('_frame_raw', '_frame_id', '_names_raw', '_names_parts', '_names', '_layout')
+    __slots__ = ('_frame_raw', '_frame_id', '_names_raw', '_names_parts', '_names', '_layout', '_arrays')
 
-    def __init__(self):
+    def __init__(self, arrays=True):
         self._frame_raw = b'\x01\x00\x00\x00\x00'   # frame_id '' as CDR: length 1, NUL
         self._frame_id = ''
         self._names_raw = None
         self._names_parts = ()
         self._names = None
-        self._layout = None     # see _same_layout
+        self._layout = None     # see _remember_layout
+        self._arrays = bool(arrays)
 
     def decode(self, buf):
         """`JointStateFrame` of the CDR bytes `buf`, or None (never raises) if they are not
@@ -187,15 +192,23 @@ class JointStateDecoder:
         if lay is not None:
             # the remembered layout: same size and bytes from frame_id to the first double (frame_id, names,
             # the counts before it), the same counts after it; the full decode would read the same offsets
-            size, head, fixed, count, second, third, start, shape, strides = lay
+            size, head, fixed, count, second, third, start, shape, strides, floats = lay
             if (len(buf) == size and buf.startswith(head) and buf.startswith(fixed, _FRAME_ID)
                     and buf.startswith(count, second) and buf.startswith(count, third)):
                 sec, nanosec = _STAMP.unpack_from(buf, _BODY)
-                rows = np.ndarray(shape, _F8, buf, start, strides)
-                if shape[0] == 3:
-                    position, velocity, effort = rows[0], rows[1], rows[2]
+                if floats is not None:
+                    values = floats.unpack_from(buf, start)
+                    n = shape[1]
+                    if shape[0] == 3:
+                        position, velocity, effort = values[:n], values[n:2 * n], values[2 * n:]
+                    else:
+                        position, velocity, effort = (), (), values
                 else:
-                    position, velocity, effort = _EMPTY, _EMPTY, rows[0]
+                    rows = np.ndarray(shape, _F8, buf, start, strides)
+                    if shape[0] == 3:
+                        position, velocity, effort = rows[0], rows[1], rows[2]
+                    else:
+                        position, velocity, effort = _EMPTY, _EMPTY, rows[0]
                 return tuple.__new__(JointStateFrame, (sec, nanosec, self._frame_id, self._names,
                                                        position, velocity, effort))
             self._layout = None
@@ -210,6 +223,8 @@ class JointStateDecoder:
         if arrays is None:
             arrays = _three_doubles(buf, off, size)
         self._remember_layout(buf, off, arrays)
+        if not self._arrays:
+            arrays = tuple(tuple(a.tolist()) for a in arrays)
         return tuple.__new__(JointStateFrame, (sec, nanosec, self._frame_id, self._names) + arrays)
 
     def _remember_layout(self, buf, off, arrays):
@@ -217,7 +232,7 @@ class JointStateDecoder:
         two layouts of a control loop: three equal counts (a robot's joint_states) and efforts only (a
         command). That is the size, the encapsulation, the bytes from frame_id to the first double, a
         count's bytes and where it repeats after that, the first double's offset, the arrays' shape and
-        strides."""
+        strides, and (arrays=False) the struct that reads the doubles."""
         n = arrays[2].shape[0]
         if n and arrays[0].shape[0] == arrays[1].shape[0] == n:
             start, stride = _align8(off + 4), 8 * n + 8
@@ -227,7 +242,9 @@ class JointStateDecoder:
             count, repeats, shape = b'', (0, 0), (1, n)     # every count is before the data: nothing repeats
         else:
             return
-        self._layout = (len(buf), buf[:_BODY], buf[_FRAME_ID:start], count, *repeats, start, shape, (stride, 8))
+        floats = None if self._arrays else struct.Struct('<' + f'{n}d8x' * (shape[0] - 1) + f'{n}d')
+        self._layout = (len(buf), buf[:_BODY], buf[_FRAME_ID:start], count, *repeats, start, shape, (stride, 8),
+                        floats)
 
     def _frame_id_end(self, buf, size):
         """Reads frame_id into the cache (unless unchanged); returns the offset after it."""
@@ -301,7 +318,7 @@ class JointStateEncoder:
     Fields not in `fields` are sent as empty sequences.
     """
 
-    __slots__ = ('_buf', '_n', '_views')
+    __slots__ = ('_buf', '_n', '_views', '_pack3', '_data')
 
     def __init__(self, names, fields=FIELDS):
         """`names`: joint names (sequence of str); `fields`: the subset of 'position', 'velocity',
@@ -312,6 +329,12 @@ class JointStateEncoder:
         self._n = len(encoded)
         self._buf, slots = _layout(encoded, fields)
         self._views = {f: np.frombuffer(self._buf, _F8, n, off) for f, (off, n) in slots.items() if f in fields}
+        # all three fields: their doubles and the two counts between them in one struct (counts are n, the
+        # padding after each count is 4 zero bytes), so three sequences of floats are written in one call
+        n = self._n
+        full = n and len(self._views) == 3
+        self._pack3 = struct.Struct(f'<{n}dI4x{n}dI4x{n}d').pack if full else None
+        self._data = slice(slots['position'][0], len(self._buf)) if full else None
 
     def encode(self, stamp_ns, position=None, velocity=None, effort=None):
         """CDR bytes of the JointState stamped `stamp_ns` (int ns since the epoch, >= 0).
@@ -324,12 +347,29 @@ class JointStateEncoder:
         else:
             sec, nanosec = _stamp(stamp_ns)
         if position is not None or velocity is not None or effort is not None:
-            writes = [(self._view(field, value), value)
-                      for field, value in zip(FIELDS, (position, velocity, effort)) if value is not None]
-            for view, value in writes:
-                view[...] = value
+            data = self._packed(position, velocity, effort)
+            if data is not None:
+                self._buf[self._data] = data
+            else:
+                writes = [(self._view(field, value), value)
+                          for field, value in zip(FIELDS, (position, velocity, effort)) if value is not None]
+                for view, value in writes:
+                    view[...] = value
         _STAMP.pack_into(self._buf, _BODY, sec, nanosec)
         return bytes(self._buf)
+
+    def _packed(self, position, velocity, effort):
+        """The data of all three fields packed in one call when the encoder has all three and each is
+        given as a list or tuple of n numbers (no numpy); None otherwise (or for anything struct refuses:
+        the array path then checks, and names the field)."""
+        n = self._n
+        if (self._pack3 is None or type(position) not in _SEQUENCES or type(velocity) not in _SEQUENCES
+                or type(effort) not in _SEQUENCES or len(position) != n or len(velocity) != n or len(effort) != n):
+            return None
+        try:
+            return self._pack3(*position, n, *velocity, n, *effort)
+        except struct.error:
+            return None
 
     def values(self, field):
         """The float64 (n,) values of `field` inside the message, writable in place: what the next

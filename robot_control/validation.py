@@ -31,15 +31,15 @@ def all_finite(*arrays):
 
 
 def float_list(value, n):
-    """A copy of `value` when it is a list of n finite real numbers, else None (vector() then names
-    what is wrong): a command's fast path, without an array. One sum checks them all."""
+    """`value` as a new list of floats when it is a list of n finite real numbers, else None (vector()
+    then names what is wrong): a command's fast path, without an array. One sum checks them all."""
     if type(value) is not list or len(value) != n:
         return None
     try:
         ok = math.isfinite(sum(value))
     except TypeError:           # a str, a complex, None ...
         return None
-    return list(value) if ok else None
+    return list(map(float, value)) if ok else None
 
 
 def vector(name, value, n=None):

@@ -143,8 +143,7 @@ class SimBridge(Node):
         # -- preallocated messages: joint_states as serialized bytes (robot_control.cdr: a few us, where
         # rclpy's conversion of a JointState costs tens), one Time shared by the other headers
         self._js_encoder = cdr.JointStateEncoder(self.joint_names)
-        self._js_values = tuple(self._js_encoder.values(f) for f in cdr.FIELDS)   # q, qd, tau, filled in place
-        self._cmd_decoder = cdr.JointStateDecoder()
+        self._cmd_decoder = cdr.JointStateDecoder(arrays=False)          # efforts as floats: no numpy per tick
         self._stamp = conversions.ns_to_stamp(0)
         self._clock_msg = ClockMsg()
         self._clock_msg.clock = self._stamp
@@ -298,7 +297,7 @@ class SimBridge(Node):
         path (a count costs about 4 us there), so a subscriber that appears mid-run gets the wrench from
         the next tick on; a first or re-published state counts now."""
         w = self._world
-        w.state_into(*self._js_values)
+        q, qd, tau = w.state_values()
         t = w.t_ns
         if not in_loop:
             self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0
@@ -309,7 +308,7 @@ class SimBridge(Node):
             force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
             torque.x, torque.y, torque.z = float(m[0]), float(m[1]), float(m[2])
             self._pub_wrench.publish(self._wrench)
-        self._pub_js.publish(self._js_encoder.encode(t))
+        self._pub_js.publish(self._js_encoder.encode(t, q, qd, tau))
         self._wall_last_pub = time.monotonic_ns()
         clock_ns = self.cfg.clock_period_ns
         if not clock_ns or t % clock_ns < self.cfg.control_period_ns:   # the tick that crosses a /clock period
@@ -388,7 +387,7 @@ class SimBridge(Node):
             if self._brake_reason:
                 self._set_brakes('')
             else:
-                self._world.set_torque(self._mapper.values)
+                self._world.hold_torque(self._mapper.values)
         elif not self._have_cmd:
             self._set_brakes('no valid command yet')
         self._step()
@@ -407,7 +406,7 @@ class SimBridge(Node):
         if self._brake_reason:
             self._update_brakes(t)
         if not self._brake_reason:
-            self._world.set_torque(self._mapper.values)
+            self._world.hold_torque(self._mapper.values)
 
     # -- brakes -------------------------------------------------------------------------------
     def _update_brakes(self, t_ns, log=True):
@@ -432,7 +431,7 @@ class SimBridge(Node):
             return
         self._world.brake(on)
         if not on:
-            self._world.set_torque(self._mapper.values)
+            self._world.hold_torque(self._mapper.values)
         self._brake_events += 1
         if log and self._brake_throttle.ready(time.monotonic_ns()):
             if on:

@@ -242,8 +242,7 @@ class World:
             p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
         self._wall = self._make_wall() if spec.surface is not None else None
         self.t_ns = 0
-        self._tau = np.zeros(self.n)
-        self._tau_list = self._tau.tolist()     # what PyBullet is sent: one conversion per set_torque
+        self._tau_list = [0.0] * self.n         # the held torque, as PyBullet is sent it
         self._brake = None
 
     def _index_joints(self):
@@ -340,17 +339,19 @@ class World:
         """Hold joint torque `tau` (n,), N m or N, clipped to the effort limits, until changed.
 
         Non-finite or wrong-length tau -> ValueError; the previous torque stays. Returns the
-        clipped torque (what will be applied; while braked it is stored for the release)."""
-        values = validation.float_list(tau, self.n)       # the bridge's commands: a list, no array
+        clipped torque (what will be applied; while braked it is stored for the release), a new array."""
+        self.hold_torque(tau)
+        return np.array(self._tau_list, dtype=float)
+
+    def hold_torque(self, tau):
+        """set_torque without the returned array: the bridge's call, once per control period. A list
+        of n finite numbers is checked by one sum and held as a copy, without numpy."""
+        values = validation.float_list(tau, self.n)
         if values is None:
             values = validation.vector('tau', tau, self.n).tolist()
-        if max(values) <= self._limit_min and min(values) >= -self._limit_min:   # most commands: nothing to clip
-            self._tau[:] = values
-            self._tau_list = values
-        else:
-            np.minimum(np.maximum(values, self._neg_limit, out=self._tau), self._limit, out=self._tau)
-            self._tau_list = self._tau.tolist()
-        return self._tau.copy()
+        if max(values) > self._limit_min or min(values) < -self._limit_min:   # most commands: nothing to clip
+            values = np.minimum(np.maximum(values, self._neg_limit), self._limit).tolist()
+        self._tau_list = values
 
     def set_disturbance(self, joint_torque=None, cartesian_force=None):
         """Replace the disturbance: joint_torque (n,) N m or N added at the joints, cartesian_force
@@ -397,7 +398,7 @@ class World:
         if self._brake is None and spec.spring is None and not dist.has_joint_torque:
             forces = self._tau_list         # the common case: the actuator torque alone
         else:
-            tau = dist.joint_torque + (0.0 if self._brake is not None else self._tau)
+            tau = dist.joint_torque + (0.0 if self._brake is not None else np.array(self._tau_list))
             if spec.spring is not None:
                 x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
                 tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
@@ -416,12 +417,14 @@ class World:
         n = self.n
         return self.state_into(np.empty(n), np.empty(n), np.empty(n))
 
+    def state_values(self):
+        """state() as three tuples of n floats, without numpy (what the bridge serializes)."""
+        q, qd, _, applied = zip(*p.getJointStates(self._body, self._idx, physicsClientId=self._client))
+        return q, qd, applied if self._brake is not None else tuple(self._tau_list)
+
     def state_into(self, q_out, qd_out, tau_out):
         """state() written into three float64 (n,) arrays (no allocation); returns them."""
-        q, qd, _, applied = zip(*p.getJointStates(self._body, self._idx, physicsClientId=self._client))
-        q_out[:] = q
-        qd_out[:] = qd
-        tau_out[:] = applied if self._brake is not None else self._tau_list
+        q_out[:], qd_out[:], tau_out[:] = self.state_values()
         return q_out, qd_out, tau_out
 
     def tip_position(self):

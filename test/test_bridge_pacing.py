@@ -1,4 +1,5 @@
 """Bridge pacing, command checks and parameter validation without ROS (sim_bridge.pacing, bridge_params)."""
+import array
 import math
 
 import numpy as np
@@ -130,6 +131,11 @@ def test_mapper_maps_by_name_in_any_order():
     assert m.tau.tolist() == [4.0, 5.0, 6.0]
     assert m.map_array(np.array([7.0, 8.0, 9.0])) is None
     assert m.tau.tolist() == [7.0, 8.0, 9.0] and m.accepted == 3
+    # what the bridge decodes (a cdr frame's tuple) and what a message holds (array('d')); ints are numbers
+    for efforts in ((3.0, 1.0, 2.0), array.array('d', [3.0, 1.0, 2.0]), (3, 1, True), np.array([3, 1, 2])):
+        assert m.map_named(['c', 'a', 'b'], efforts) is None
+        assert m.values == [1.0, float(efforts[2]), 3.0] and m.tau.dtype == np.float64
+    assert m.map_named(['c', 'a', 'b'], (math.nan, 1.0, 2.0)).startswith('effort')
 
 
 @pytest.mark.parametrize('names, efforts, kind, field', [

@@ -79,7 +79,11 @@ def assert_same(frame, msg):
     assert frame.name == list(msg.name) and all(type(n) is str for n in frame.name)
     for field in ('position', 'velocity', 'effort'):
         got, want = getattr(frame, field), list(getattr(msg, field))
-        assert got.dtype == np.float64 and got.ndim == 1 and not got.flags.writeable, field
+        if type(got) is tuple:          # JointStateDecoder(arrays=False)
+            assert all(type(v) is float for v in got), field
+            got = np.array(got)
+        else:
+            assert got.dtype == np.float64 and got.ndim == 1 and not got.flags.writeable, field
         assert bits(got.tolist()) == bits(want), field
         if not any(math.isnan(v) for v in want):
             assert got.tolist() == want, field
@@ -118,6 +122,8 @@ def encoded():
                 given = {f: np.array(random_values(rng, len(names))) for f in fields if i == 0 or rng.random() < 0.6}
                 if i == 1:
                     given = {f: v.tolist() for f, v in given.items()}  # plain lists work too
+                if i == 2:    # every field as a tuple: all three at once take the one-struct path
+                    given = {f: tuple(random_values(rng, len(names))) for f in fields}
                 current.update({f: list(v) for f, v in given.items()})
                 cases.append((encoder.encode(stamp, **given), spec(names, stamp, **current)))
     return cases
@@ -199,6 +205,8 @@ def test_encode_returns_independent_bytes():
     ({'effort': np.zeros((7, 1))}, 'effort'),
     ({'effort': 1.0}, 'effort'),
     ({'position': [1.0] * 7, 'velocity': []}, 'velocity'),
+    ({'position': [1.0] * 6, 'velocity': (1.0,) * 8, 'effort': [1.0] * 7}, 'position'),   # 21 values in all
+    ({'position': [1.0] * 7, 'velocity': (1.0,) * 7, 'effort': [1.0] * 8}, 'effort'),
 ])
 def test_wrong_length_names_the_field_and_writes_nothing(kwargs, field):
     encoder = JointStateEncoder(IIWA)
@@ -243,13 +251,14 @@ def test_bad_fields_name_fields(fields):
 
 def test_decode_equals_deserialize_message_for_random_messages():
     rng = random.Random(2024)
-    shared = JointStateDecoder()
+    shared, floats = JointStateDecoder(), JointStateDecoder(arrays=False)
     for _ in range(300):
         buf = serialize_message(message(random_spec(rng)))  # garbage padding and trailing bytes included
         want = deserialize_message(buf, JointState)
         assert_same(shared.decode(buf), want)
+        assert_same(floats.decode(buf), want)
         assert_same(JointStateDecoder().decode(buf), want)
-        assert_same(JointStateDecoder().decode(bytearray(buf)), want)
+        assert_same(JointStateDecoder(arrays=False).decode(bytearray(buf)), want)
 
 
 def test_decode_reads_the_names_and_values_of_a_typical_message():
@@ -287,20 +296,22 @@ def _fields(frame):
     """Every field of a frame as comparable plain values (None stays None)."""
     if frame is None:
         return None
-    return (frame.sec, frame.nanosec, frame.frame_id, list(frame.name), bits(frame.position.tolist()),
-            bits(frame.velocity.tolist()), bits(frame.effort.tolist()))
+    return (frame.sec, frame.nanosec, frame.frame_id, list(frame.name), bits(list(frame.position)),
+            bits(list(frame.velocity)), bits(list(frame.effort)))
 
 
+@pytest.mark.parametrize('arrays', [True, False])
 @pytest.mark.parametrize('fields', [('position', 'velocity', 'effort'), ('effort',)])
 @pytest.mark.parametrize('names', [['theta1', 'r'], IIWA])
-def test_what_a_decoder_remembers_never_changes_what_it_decodes(names, fields, monkeypatch):
+def test_what_a_decoder_remembers_never_changes_what_it_decodes(names, fields, arrays, monkeypatch):
     """A decoder that has just read a message of the same layout (names, counts, size: a state or a
     command) decodes every one-byte change of the next message (stamp, frame_id, names, counts, padding,
-    values) exactly as a fresh decoder does: its shortcuts only skip work whose result they know."""
+    values) exactly as a fresh decoder does: its shortcuts only skip work whose result they know. The
+    same for a decoder of floats (arrays=False) against a fresh decoder of arrays."""
     values = {f: np.arange(len(names)) + k for f, k in zip(fields, (0.5, 10.5, 20.5))}
     first, second = (JointStateEncoder(names, fields).encode(t, **values) for t in (1, 2))
     want = _fields(JointStateDecoder().decode(second))
-    warm = JointStateDecoder()
+    warm = JointStateDecoder(arrays)
     warm.decode(first)
     with monkeypatch.context() as patch:   # a control loop's two layouts take the shortcut: no array parsing
         for parser in ('_equal_doubles', '_three_doubles'):
@@ -309,7 +320,7 @@ def test_what_a_decoder_remembers_never_changes_what_it_decodes(names, fields, m
     for i in range(len(second)):
         for byte in {0, 1, 0x7F, 0xFF, second[i] ^ 0x01}:
             mutated = second[:i] + bytes([byte]) + second[i + 1:]
-            warm = JointStateDecoder()
+            warm = JointStateDecoder(arrays)
             assert warm.decode(first) is not None
             assert _fields(warm.decode(mutated)) == _fields(JointStateDecoder().decode(mutated)), (i, byte)
 

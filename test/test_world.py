@@ -265,6 +265,9 @@ def test_a_list_command_is_held_as_a_copy(make_world):
     world.set_torque([0, 0])
     world.step(1)
     assert world.state()[2].tolist() == [0.0, 0.0]
+    world.hold_torque((1.0, 2.0))        # set_torque without the returned array
+    world.step(1)
+    assert world.state()[2].tolist() == [1.0, 2.0]
 
 
 def test_torque_set_while_braked_applies_on_release(make_world):
@@ -274,10 +277,12 @@ def test_torque_set_while_braked_applies_on_release(make_world):
     world.step(100)
     q_braked, _, tau_brake = world.state()
     assert np.allclose(tau_brake, model.g(q_braked), rtol=1e-3)     # the motors carry g, not the command
+    assert world.state_values() == tuple(tuple(a.tolist()) for a in world.state())   # floats, no numpy
     world.brake(False)
     world.step()
     q, qd, tau = world.state()
     assert np.array_equal(tau, model.g(q_braked) + [0.0, 5.0])
+    assert world.state_values() == (tuple(q.tolist()), tuple(qd.tolist()), tuple(tau.tolist()))
     assert qd[1] / world.dt == pytest.approx(5.0 / 2.0, rel=1e-3)    # r: m rdd = 5 N
 
 
