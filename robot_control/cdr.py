@@ -41,7 +41,6 @@ _STAMP = struct.Struct('<iI')
 _BODY = 4                             # body start: CDR alignment counts from here
 _FRAME_ID = 12                        # offset of the frame_id length
 _ERRORS = (struct.error, ValueError, IndexError, TypeError, OverflowError)
-_SEQUENCES = (tuple, list)
 
 
 def _align4(off):
@@ -318,7 +317,7 @@ class JointStateEncoder:
     Fields not in `fields` are sent as empty sequences.
     """
 
-    __slots__ = ('_buf', '_n', '_views', '_pack3', '_data')
+    __slots__ = ('_buf', '_n', '_views', '_pack', '_data', '_only')
 
     def __init__(self, names, fields=FIELDS):
         """`names`: joint names (sequence of str); `fields`: the subset of 'position', 'velocity',
@@ -329,12 +328,13 @@ class JointStateEncoder:
         self._n = len(encoded)
         self._buf, slots = _layout(encoded, fields)
         self._views = {f: np.frombuffer(self._buf, _F8, n, off) for f, (off, n) in slots.items() if f in fields}
-        # all three fields: their doubles and the two counts between them in one struct (counts are n, the
-        # padding after each count is 4 zero bytes), so three sequences of floats are written in one call
-        n = self._n
-        full = n and len(self._views) == 3
-        self._pack3 = struct.Struct(f'<{n}dI4x{n}dI4x{n}d').pack if full else None
-        self._data = slice(slots['position'][0], len(self._buf)) if full else None
+        # one field, or all three: their doubles (with the two counts between three: n, then 4 zero bytes
+        # of padding) are written by one struct call
+        n, listed = self._n, [f for f in FIELDS if f in fields]
+        packs = n and len(listed) in (1, 3)
+        self._pack = struct.Struct('<' + 'I4x'.join([f'{n}d'] * len(listed))).pack if packs else None
+        self._data = slice(slots[listed[0]][0], slots[listed[-1]][0] + 8 * n) if packs else None
+        self._only = FIELDS.index(listed[0]) if packs and len(listed) == 1 else None
 
     def encode(self, stamp_ns, position=None, velocity=None, effort=None):
         """CDR bytes of the JointState stamped `stamp_ns` (int ns since the epoch, >= 0).
@@ -359,15 +359,24 @@ class JointStateEncoder:
         return bytes(self._buf)
 
     def _packed(self, position, velocity, effort):
-        """The data of all three fields packed in one call when the encoder has all three and each is
-        given as a list or tuple of n numbers (no numpy); None otherwise (or for anything struct refuses:
-        the array path then checks, and names the field)."""
-        n = self._n
-        if (self._pack3 is None or type(position) not in _SEQUENCES or type(velocity) not in _SEQUENCES
-                or type(effort) not in _SEQUENCES or len(position) != n or len(velocity) != n or len(effort) != n):
+        """The data of the encoder's fields packed in one struct call, when exactly those fields are given,
+        each as n numbers in a list, a tuple or a float64 array; None otherwise, and for anything struct
+        refuses (the checked path then writes it, or names the field)."""
+        n, only = self._n, self._only
+        if self._pack is None:
             return None
+        if only is not None:
+            given = (position, velocity, effort)
+            args = _items(given[only], n)
+            if args is None or sum(v is not None for v in given) != 1:
+                return None
+        else:
+            p, v, e = _items(position, n), _items(velocity, n), _items(effort, n)
+            if p is None or v is None or e is None:
+                return None
+            args = (*p, n, *v, n, *e)
         try:
-            return self._pack3(*position, n, *velocity, n, *effort)
+            return self._pack(*args)
         except struct.error:
             return None
 
@@ -387,6 +396,16 @@ class JointStateEncoder:
         if shape != view.shape:
             raise ValueError(f'{field}: expected {self._n} values (one per name), got shape {shape}')
         return view
+
+
+def _items(value, n):
+    """The n values of a list or tuple (itself) or of a float64 (n,) array (a list); None for anything else."""
+    kind = type(value)
+    if kind is tuple or kind is list:
+        return value if len(value) == n else None
+    if kind is np.ndarray and value.dtype is _F8 and value.shape == (n,):
+        return value.tolist()
+    return None
 
 
 def _stamp(stamp_ns):
