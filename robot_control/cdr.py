@@ -366,9 +366,10 @@ class JointStateEncoder:
         if self._pack is None:
             return None
         if only is not None:
-            given = (position, velocity, effort)
-            args = _items(given[only], n)
-            if args is None or sum(v is not None for v in given) != 1:
+            if (position is None) + (velocity is None) + (effort is None) != 2:
+                return None
+            args = _items((position, velocity, effort)[only], n)
+            if args is None:
                 return None
         else:
             p, v, e = _items(position, n), _items(velocity, n), _items(effort, n)
