@@ -288,8 +288,7 @@ class ControllerCore:
         self._q_d, self._qd_d, self._qdd_d = np.zeros(n), np.zeros(n), np.zeros(n)
         self._held = None       # the trajectory whose end state (held after t_end) the three arrays hold
         self._tau = np.zeros(n)
-        self._tau_prev = np.zeros(n)
-        self._has_prev = False
+        self._has_prev = False  # self._tau holds a tick's torque: the last one sent, until _saturate
         self._sat = np.zeros(n, dtype=bool)
         self._sat_any = False
         self._n = n
@@ -580,7 +579,6 @@ class ControllerCore:
         sat_any = self._saturate(tau, cfg)
         if sat_any and int_E is not None and dt > 0.0:
             self._back_calculate(cfg, np.array(tau, dtype=float), dt)
-        self._tau_prev[:] = self._tau
         self._has_prev = True
         self.ticks += 1
         self._sat_any = sat_any
@@ -706,7 +704,7 @@ class ControllerCore:
             return None
         if cfg.law == 'hybrid':
             return np.ones(self._integral.n, dtype=bool)
-        return self._sat & (self._E * self._tau_prev > 0.0)
+        return self._sat & (self._E * self._tau > 0.0)      # self._tau: still the last tick's torque
 
     def _back_calculate(self, cfg, tau_law, dt):
         """Anti-windup by back-calculation (Astrom and Hagglund, Advanced PID Control, sec. 3.5).
@@ -756,7 +754,7 @@ class ControllerCore:
                 z[j] = 1.0
                 B[:, c] = evaluate(z) - tau0
                 z[j] = 0.0
-            sol = np.linalg.lstsq(B, self._tau_prev - tau0, rcond=None)[0]
+            sol = np.linalg.lstsq(B, self._tau - tau0, rcond=None)[0]     # the last torque sent
         except (ValueError, np.linalg.LinAlgError):
             return
         if np.all(np.isfinite(sol)):
