@@ -405,11 +405,13 @@ def _released(d):
 
 
 def _start_loop(dom, procs, ex, mon, controller_params=None, bridge_params=None, scenario='polar_two_link'):
-    """Bridge and controller processes; returns once commands flow and the brakes are released."""
+    """Bridge and controller processes; returns once the monitor sees commands and states flow and the
+    brakes released (DDS matches each of the monitor's subscriptions on its own: commands can come first)."""
     procs.append(rh.bridge(dom, LOG_DIR, scenario=scenario, **{'diagnostics_period': 0.1, 'real_time_factor': RTF,
                                                                 **(bridge_params or {})}))
     procs.append(rh.controller(dom, LOG_DIR, scenario=scenario, **(controller_params or {})))
-    ok = spin_until(ex, lambda: len(mon.commands) > 20 and first_diag(mon, _released) is not None, 40.0)
+    ok = spin_until(ex, lambda: len(mon.commands) > 20 and mon.states and first_diag(mon, _released) is not None,
+                    40.0)
     assert ok, ('the loop did not start: ' + ' | '.join(p.output()[-600:] for p in procs))
     return procs[-2], procs[-1]
 
