@@ -289,6 +289,7 @@ class ControllerCore:
         self._held = None       # the trajectory whose end state (held after t_end) the three arrays hold
         self._tau = np.zeros(n)
         self._has_prev = False  # self._tau holds a tick's torque: the last one sent, until _saturate
+        self._tau_values = [0.0] * n
         self._sat = np.zeros(n, dtype=bool)
         self._sat_any = False
         self._n = n
@@ -595,10 +596,12 @@ class ControllerCore:
         values = tau.tolist()
         if max(values) <= self._limit_min and min(values) >= -self._limit_min:
             self._tau[:] = tau
+            self._tau_values = values
             if self._sat_any:
                 self._sat[:] = False
             return False
         clip_into(tau, cfg.effort_limit, self._neg_limit, self._tau, self._sat)
+        self._tau_values = self._tau.tolist()
         return bool(np.count_nonzero(self._sat))
 
     def _fallback(self, model, q, exc):
@@ -766,6 +769,11 @@ class ControllerCore:
     def tau(self):
         """Torque of the last tick, (n,), N m or N."""
         return self._tau
+
+    @property
+    def tau_values(self):
+        """The same torque as a list of floats (what a serializer wants, without a numpy call)."""
+        return self._tau_values
 
     @property
     def saturated(self):

@@ -130,7 +130,7 @@ class ControllerNode(Node):
         self._reader = conversions.JointStateReader(cfg.joints)
         # joint_states in and the command out as serialized bytes (robot_control.cdr: a few us each,
         # where rclpy's conversion of a JointState costs tens)
-        self._state_decoder = cdr.JointStateDecoder()
+        self._state_decoder = cdr.JointStateDecoder(arrays=False)    # floats: checked before any numpy call
         self._command_encoder = cdr.JointStateEncoder(cfg.joints, fields=('effort',))
         self._effort_array = Float64MultiArray()
         self._reference_msg = JointState()
@@ -276,7 +276,7 @@ class ControllerNode(Node):
         except ValueError as exc:  # defensive: the core falls back to gravity hold before this
             self._reject('joint_states', f'controller: {exc}')
             return
-        self._cmd_pub.publish(self._command_encoder.encode(msg_stamp_ns, effort=tau))   # lockstep: t_k, even 0
+        self._cmd_pub.publish(self._command_encoder.encode(msg_stamp_ns, effort=self._core.tau_values))  # t_k, even 0
         if self._array_pub is not None:
             self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
         self.tick_stats.add(time.perf_counter_ns() - t_in)

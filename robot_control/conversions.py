@@ -77,8 +77,9 @@ class JointStateReader:
     read(msg) -> (q, qd): (n,) float64 arrays valid until the next read (copy them to keep
     them): internal buffers, or a robot_control.cdr frame's own read-only arrays. The name ->
     index map is cached while the message's name list does not change, so a steady stream costs
-    one list comparison and at most two copies per message (none for a cdr frame that lists
-    exactly the controlled joints in their order).
+    one list comparison and at most two copies per message (none for a cdr frame of arrays that
+    lists exactly the controlled joints in their order). A cdr frame of floats
+    (JointStateDecoder(arrays=False)) is checked on its floats, then copied: no other numpy call.
     """
 
     def __init__(self, joints):
@@ -117,6 +118,16 @@ class JointStateReader:
             raise ValueError(f'velocity: expected one entry per name ({k}), got {len(velocity)}')
         index = self._index_for(names)
         q, qd = self._q, self._qd
+        if self._in_order and type(position) is tuple and type(velocity) is tuple:
+            values = position + velocity  # a cdr frame's floats: checked before any numpy call
+            try:
+                ok = math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS
+            except TypeError:             # not numbers: the array path below names them
+                ok = False
+            if ok:
+                q[:] = position
+                qd[:] = velocity
+                return q, qd
         if not self._in_order:
             np.take(np.asarray(position, dtype=float), index, out=q)
             np.take(np.asarray(velocity, dtype=float), index, out=qd)

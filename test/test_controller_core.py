@@ -119,6 +119,7 @@ def test_every_tick_equals_the_library_law(case, integral, entry):
     for k in range(60):
         q, qd = random_state(n, 0.002, q0)
         tau = update(k * DT, q, qd, f_meas)
+        assert core.tau_values == tau.tolist()
         if case == 'computed_torque':   # the core's own evaluation does the law's float operations in order
             np.testing.assert_array_equal(tau, _library_tau(core, q, qd, f_meas))
         else:
@@ -331,6 +332,7 @@ def test_torque_is_clipped_to_the_effort_limits_and_counted():
     core.set_goal([1.5, 1.0], duration=0.01)
     tau = core.update(0.5, np.array([0.0, 0.5]), np.zeros(2))
     np.testing.assert_array_equal(np.abs(tau), [5.0, 3.0])
+    assert core.tau_values == tau.tolist()             # the clipped torque, also as floats
     assert core.saturated.tolist() == [True, True]
     assert core.saturated_ticks == 2 and core.saturation_counts.tolist() == [2, 1]
 

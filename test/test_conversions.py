@@ -89,7 +89,7 @@ def test_reader_reuses_its_buffers():
     (['theta1', 'r'], [0.0, 0.1], [math.inf, 0.0], "^velocity: not finite for 'theta1': inf"),
     (['a', 'b'], [0.0, 0.1], [0.0, 0.0], r"^name: missing controlled joints \['theta1', 'r'\]"),
 ])
-@pytest.mark.parametrize('kind', ['message', 'cdr frame'])
+@pytest.mark.parametrize('kind', ['message', 'cdr frame', 'cdr frame of floats'])
 def test_reader_rejects_bad_states_naming_the_field(names, position, velocity, match, kind):
     msg = as_kind(cv.joint_state(names, 0, position, velocity), kind)
     with pytest.raises(ValueError, match=match):
@@ -98,12 +98,15 @@ def test_reader_rejects_bad_states_naming_the_field(names, position, velocity, m
 
 def as_kind(msg, kind):
     """The JointState itself, or what the nodes read: the robot_control.cdr frame of its bytes."""
-    return msg if kind == 'message' else JointStateDecoder().decode(serialize_message(msg))
+    if kind == 'message':
+        return msg
+    return JointStateDecoder(arrays=kind == 'cdr frame').decode(serialize_message(msg))
 
 
+@pytest.mark.parametrize('arrays', [True, False])
 @pytest.mark.parametrize('names', [JOINTS, JOINTS[::-1], ('gripper',) + JOINTS])
-def test_reader_reads_cdr_frames_like_messages(names):
-    reader, frames = cv.JointStateReader(JOINTS), JointStateDecoder()
+def test_reader_reads_cdr_frames_like_messages(names, arrays):
+    reader, frames = cv.JointStateReader(JOINTS), JointStateDecoder(arrays)
     for k in range(3):
         q = [0.1 * k + i for i in range(len(names))]
         qd = [-0.2 * k - i for i in range(len(names))]
@@ -112,6 +115,19 @@ def test_reader_reads_cdr_frames_like_messages(names):
         got = reader.read(frames.decode(serialize_message(msg)))
         for g, w in zip(got, want):
             np.testing.assert_array_equal(g, w)
+
+
+@pytest.mark.parametrize('bad, match', [(1e7, r"^position: implausible magnitude .* for 'r'"),
+                                        (math.inf, "^position: not finite for 'r': inf")])
+def test_a_frame_of_floats_is_checked_like_the_message(bad, match):
+    """The float path checks the state with one sum, max and min: a state failing them is named
+    like any other; an overflow of that sum alone (two huge but valid values) is not an error."""
+    reader, frames = cv.JointStateReader(JOINTS), JointStateDecoder(arrays=False)
+    msg = cv.joint_state(JOINTS, 1, [0.1, bad], [0.0, 0.0])
+    with pytest.raises(ValueError, match=match):
+        reader.read(frames.decode(serialize_message(msg)))
+    q, qd = reader.read(frames.decode(serialize_message(cv.joint_state(JOINTS, 2, [0.1, 0.2], [0.3, 0.4]))))
+    assert q.tolist() == [0.1, 0.2] and qd.tolist() == [0.3, 0.4]
 
 
 def test_non_finite_values_of_uncontrolled_joints_are_ignored():
