@@ -371,6 +371,9 @@ class JointStateEncoder:
             args = _items((position, velocity, effort)[only], n)
             if args is None:
                 return None
+        elif (type(position) is tuple and type(velocity) is tuple and type(effort) is tuple
+              and len(position) == len(velocity) == len(effort) == n):
+            args = (*position, n, *velocity, n, *effort)      # e.g. World.state_values(): as they are
         else:
             p, v, e = _items(position, n), _items(velocity, n), _items(effort, n)
             if p is None or v is None or e is None:
