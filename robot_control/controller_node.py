@@ -5,6 +5,7 @@ Topics (names relative, remappable; QoS from robot_control.qos):
   sub ~/joint_trajectory          trajectory_msgs/JointTrajectory REFERENCE_QOS joint reference
   sub ~/wrench_reference          geometry_msgs/WrenchStamped  REFERENCE_QOS desired force (force axes);
                                                                              stamped ahead: applied from that time
+                                                                             (dropped if time goes back first)
   sub ft_sensor/wrench            geometry_msgs/WrenchStamped  CONTROL_QOS   measured contact force
   pub robot_joint_commands        sensor_msgs/JointState       CONTROL_QOS   name + effort
   pub effort_controller/commands  std_msgs/Float64MultiArray   CONTROL_QOS   if publish_effort_array
@@ -268,6 +269,10 @@ class ControllerNode(Node):
             self._epoch_ns = stamp_ns
         recovered, self._tripped = self._tripped, False
         pending = self._pending_force
+        if pending is not None and (recovered or (last is not None and stamp_ns < last)):
+            # the core restarts (time went back: a simulator reset; or after the watchdog) and drops a pending
+            # trajectory; a force reference stamped ahead on the old timeline goes too
+            self._pending_force = pending = None
         if pending is not None and stamp_ns >= pending[0]:
             self._pending_force = None
             self._core.set_force_reference(pending[1])

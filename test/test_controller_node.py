@@ -354,6 +354,21 @@ def test_a_wrench_reference_stamped_ahead_applies_from_the_first_state_at_its_st
         robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [3.0]),      # unstamped: at once
                          lambda: ctrl.core.force_target.tolist() == [3.0])
 
+def test_a_wrench_reference_stamped_ahead_is_dropped_when_time_goes_back(ros_context):
+    """A simulator reset sends time back: the core restarts from the current state and drops a pending
+    trajectory; a force reference stamped ahead on the old timeline must not apply on the new one."""
+    with rig(ros_context, scenario='force_1dof', law='force', force_feedback='model', force_ramp_time=0.0,
+             f_d=[2.0], effort_limits=[200.0]) as (ex, ctrl, robot):
+        robot.step(ex, ['x'], [0.1], [0.0], T0_NS + 10 * DT_NS)
+        at = T0_NS + 13 * DT_NS
+        robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [7.5], stamp_ns=at),
+                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl._pending_force is not None)
+        restarts = ctrl.core.restarts
+        targets = [robot.step(ex, ['x'], [0.1], [0.0], T0_NS + k * DT_NS)[1][1][0] for k in range(0, 20)]
+        assert ctrl.core.restarts == restarts + 1 and ctrl.rejected['wrench_reference'] == 0
+        assert targets == [2.0] * 20           # stamps 0 .. 19 ms: past 13 ms, nothing pending applied
+
+
 def test_each_state_is_answered_with_the_wrench_published_before_it(ros_context):
     """The bridge publishes a tick's wrench, then its state. Switching force_feedback to sensor at run
     time subscribes ft_sensor/wrench after joint_states, so an executor that finds both waiting runs the
