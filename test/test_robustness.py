@@ -1,14 +1,14 @@
 """Robustness and safety (issue 7): nothing unsafe is ever commanded, whatever fails or arrives.
 
 End-to-end items run the bridge and the controller as separate processes (`python -m ...`)
-over Fast DDS on loopback, each test on its own ROS_DOMAIN_ID (81..90), with a monitoring node
+over Fast DDS on loopback, each test on its own ROS_DOMAIN_ID (81..92), with a monitoring node
 in the test process; waits are bounded by deadlines, every child is stopped by its pid.
 
 | item | how | domain |
 |---|---|---|
 | 1 controller SIGKILL, restart | processes, realtime bridge | 81 |
 | 2 bridge SIGKILL, restart | processes, realtime bridge | 82 |
-| 3 bad messages, >= 2,000 per topic | hypothesis; node classes in-process over DDS (exact accounting), then the same messages replayed against the processes | 83, 84, 85 |
+| 3 bad messages, >= 2,000 per topic | hypothesis; node classes in-process over DDS (exact accounting), then the same messages replayed against the processes | 83, 91 (controller rigs), 84, 92 (bridge rigs), 85 (replay) |
 | 4 joint_states flood | flood process (up to 20 kHz, 5 s) against the controller process | 86 |
 | 5 invalid parameters | start-up: processes; run time: parameter services over DDS | 87 |
 | 6 two command publishers | processes + a second publisher here | 88 |
