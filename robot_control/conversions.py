@@ -34,6 +34,12 @@ MAX_ABS = 1e6
 _F64 = np.dtype(np.float64)
 
 
+def _sane(values):
+    """True when the non-empty sequence of floats `values` is finite and within +-MAX_ABS: one Python
+    sum, max and min (a NaN or an inf makes the sum non-finite)."""
+    return math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS
+
+
 def _plausible(a):
     """True when every entry of the float array `a` is finite and |a_i| <= MAX_ABS."""
     values = a.tolist()
@@ -121,7 +127,7 @@ class JointStateReader:
         if self._in_order and type(position) is tuple and type(velocity) is tuple:
             values = position + velocity  # a cdr frame's floats: checked before any numpy call
             try:
-                ok = math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS
+                ok = _sane(values)
             except TypeError:             # not numbers: the array path below names them
                 ok = False
             if ok:
@@ -138,7 +144,7 @@ class JointStateReader:
             q[:] = position               # array.array (a received message): one buffer copy
             qd[:] = velocity
         values = q.tolist() + qd.tolist()    # one Python pass: finite and plausible
-        if math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS:
+        if _sane(values):
             return q, qd
         if q is not self._q:
             self._q[:], self._qd[:] = q, qd
