@@ -136,8 +136,8 @@ class CommandMapper:
     for std_msgs/Float64MultiArray (in `joints` order). Both fill the scratch vector ``tau`` and
     return None, or leave the last accepted command untouched and return a reason starting with the
     field name. Counts per reason are in ``rejected``. The name -> index permutation is cached for
-    the last name list seen. ``values`` is the accepted command as a list of numbers (what the
-    simulator is sent, zeros before the first), ``tau`` a copy of it as a float array.
+    the last name list seen. ``values`` is the accepted command as a list of floats (what the
+    simulator is sent, zeros before the first), ``tau`` a copy of it as an array.
     """
 
     def __init__(self, joint_names):
@@ -154,7 +154,7 @@ class CommandMapper:
     @property
     def tau(self):
         """The last accepted command, (n,) array (a copy)."""
-        return np.array(self.values, dtype=float)
+        return np.array(self.values)
 
     def clear(self):
         """Forget the last accepted command: zeros."""
@@ -206,17 +206,11 @@ class CommandMapper:
 
     def _commit(self, values, perm):
         kind = type(values)
-        if kind is tuple:            # a cdr frame's (robot_control.cdr.JointStateDecoder(arrays=False)): floats
-            v = list(values)
-        elif kind is array.array and values.typecode == 'd' or kind is np.ndarray and values.dtype is _F64:
+        if kind is array.array and values.typecode == 'd' or kind is np.ndarray and values.dtype is _F64:
             v = values.tolist()      # a message's float64[] / an array
         else:
-            v = [float(x) for x in values]
-        try:
-            total = sum(v)
-        except TypeError:            # a tuple of something else: converted like any sequence
-            v = [float(x) for x in v]
-            total = sum(v)
+            v = list(map(float, values))   # a cdr frame's tuple (JointStateDecoder(arrays=False)), any numbers
+        total = sum(v)
         if perm is not None:
             v = [v[i] for i in perm]
         if not math.isfinite(total):   # one C pass; entry by entry only for a NaN, an inf or an overflow
