@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 
 # DDS discovery stays on this machine, on a domain of its own (DESIGN §6).
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
-export ROS_DOMAIN_ID ?= $(shell $(PYTHON) -c 'import os; print(1 + os.getpid() % 100)')
+export ROS_DOMAIN_ID ?= $(shell $(PYTHON) -c 'import os; print(1 + os.getpid() % 70)')
 export PYTHONDONTWRITEBYTECODE := 1
 
 SCENARIO ?= polar_two_link
