@@ -19,7 +19,6 @@ B3 realtime at 1 kHz, per scenario, from the samples of the whole run:
 - real-time factor = simulated time advance / publication time advance of the states.
 Headline B3 keys are the worse of the two scenarios; per-scenario keys carry _polar / _iiwa.
 """
-import ctypes
 import importlib
 import math
 import os
@@ -32,6 +31,7 @@ import time
 import numpy as np
 
 from robot_control import scenarios
+from robot_control.demo_procs import die_with_parent
 
 NS = 1_000_000_000
 PERIOD_NS = 1_000_000                 # control period of every DDS run, 1 ms
@@ -52,14 +52,6 @@ def ros_env(domain_id):
 
 
 # -- child processes -----------------------------------------------------------------------------
-def _die_with_parent():
-    """Child side of Popen: SIGKILL this process if the bench dies (Linux prctl PR_SET_PDEATHSIG)."""
-    try:
-        ctypes.CDLL('libc.so.6', use_errno=True).prctl(1, signal.SIGKILL)
-    except OSError:
-        pass
-
-
 class Children:
     """The processes of one run; leaving the `with` block stops every one (SIGTERM, then SIGKILL)."""
 
@@ -73,7 +65,7 @@ class Children:
         log = open(os.path.join(self.logdir, f'{name}.log'), 'w', encoding='utf-8')
         try:
             proc = subprocess.Popen([sys.executable, *argv], env=self.env, cwd=ROOT, stdout=log,
-                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=die_with_parent)
         except BaseException:
             log.close()
             raise

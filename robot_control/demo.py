@@ -243,6 +243,7 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
                                                         BRIDGE_ARGS), env, logs / 'sim_bridge.log', cwd=ROOT)
 
         def alive():
+            procs.check_interrupted()
             poll()
             children.check_alive()
 

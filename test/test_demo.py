@@ -139,12 +139,61 @@ def test_demo_stops_every_process_on_a_signal(tmp_path, domain, sig, code):
         os.kill(p.proc.pid, sig)
         assert p.wait(30.0) == code, p.read()
     finally:
-        p.kill()
+        p.kill()          # its children die with it (demo_procs.die_with_parent)
     assert 'interrupted' in p.read()
     assert not _wait_gone(pids, 5.0), 'a child of the demo survived it'
 
 
+def test_the_children_die_with_a_killed_demo(tmp_path, domain):
+    """SIGKILL runs no `finally`: the bridge and the controller (each in a session of its own) are
+    killed by the kernel with the demo (PR_SET_PDEATHSIG) instead of running on in its domain."""
+    p = DemoProcess(['--scenario', 'polar_two_link', '--duration', '600', '--no-plot', '--no-record', '--out',
+                     str(tmp_path / 'run')], domain)
+    pids = []
+    try:
+        assert p.wait_for(r'running 600 s of simulation', 120.0), p.read()
+        pids = _child_pids(p.read())
+        assert len(pids) == 2 and all(_alive(q) for q in pids)
+        os.kill(p.proc.pid, signal.SIGKILL)          # the demo alone, not its process group
+        assert p.wait(10.0) == -signal.SIGKILL
+        assert not _wait_gone(pids, 5.0), 'a child of the demo survived its SIGKILL'
+    finally:
+        p.kill()
+        for q in pids:                              # only if the test failed: still one of the demo's nodes
+            if _alive(q) and _is_node(q):
+                os.kill(q, signal.SIGKILL)
+
+
+def _is_node(pid):
+    """True when process `pid` runs the bridge or the controller node (not a reused pid)."""
+    try:
+        cmdline = Path(f'/proc/{pid}/cmdline').read_bytes()
+    except OSError:
+        return False
+    return b'sim_bridge.bridge_node' in cmdline or b'robot_control.controller_node' in cmdline
+
+
 # -- process management ------------------------------------------------------------------------------
+def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
+    """Python drops an exception raised inside __del__ (an rclpy Future's, say): the demo then ran on
+    after a SIGTERM. The handler also remembers the signal, and the polling loops raise it again."""
+    class Finalized:
+        def __del__(self):
+            signal.raise_signal(signal.SIGTERM)
+            for _ in range(1000):     # the handler runs here, and its Interrupted goes nowhere
+                pass
+
+    old = demo_procs.install_signal_handlers()
+    try:
+        demo_procs.check_interrupted()          # nothing received yet
+        Finalized()
+        with pytest.raises(demo_procs.Interrupted, match='SIGTERM'):
+            demo_procs.check_interrupted()
+    finally:
+        demo_procs.restore_signal_handlers(old)
+    demo_procs.check_interrupted()              # restored: forgotten
+
+
 def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
     stubborn = ('import signal, time\n'
                 'signal.signal(signal.SIGINT, signal.SIG_IGN)\n'
