@@ -174,6 +174,7 @@ def _is_node(pid):
 
 
 # -- process management ------------------------------------------------------------------------------
+@pytest.mark.filterwarnings('ignore::pytest.PytestUnraisableExceptionWarning')   # the swallowed one, on purpose
 def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
     """Python drops an exception raised inside __del__ (an rclpy Future's, say): the demo then ran on
     after a SIGTERM. The handler also remembers the signal, and the polling loops raise it again."""
