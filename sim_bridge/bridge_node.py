@@ -335,10 +335,10 @@ class SimBridge(Node):
         self._on_joint_command(deserialize_message(data, JointState) if msg is None else msg)
 
     def _on_joint_command(self, msg):
+        stamp = msg.header.stamp
+        t_cmd = stamp_ns(stamp.sec, stamp.nanosec)
         if self.cfg.lockstep:
-            stamp = msg.header.stamp
-            t_cmd = stamp_ns(stamp.sec, stamp.nanosec)
-            verdict = self._gate.classify_ns(t_cmd)
+            verdict = self._gate.classify(t_cmd)
             if verdict != LockstepGate.MATCH:
                 if verdict == LockstepGate.LATE:      # answered twice: a re-published state or a 2nd controller
                     self._refresh_publisher_counts()
@@ -350,10 +350,10 @@ class SimBridge(Node):
                 return
             self._lockstep_answer(self._mapper.map_named(msg.name, msg.effort), ok)
         else:
-            ok = self._guard.check(0, self._world.t_ns, stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec))
+            ok = self._guard.check(0, self._world.t_ns, t_cmd)
             reason = self._mapper.map_named(msg.name, msg.effort)
             if reason is None and ok:
-                self._deadline.command(stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec), time.monotonic_ns())
+                self._deadline.command(t_cmd, time.monotonic_ns())
             self._realtime_command(reason, ok)
 
     def _on_array_command(self, msg):

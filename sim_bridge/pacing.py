@@ -115,11 +115,8 @@ class LockstepGate:
     def expect(self, t_ns):
         self.expected_ns = t_ns
 
-    def classify(self, sec, nanosec):
-        return self.classify_ns(sec * 1_000_000_000 + nanosec)
-
-    def classify_ns(self, t):
-        """classify() of a stamp in integer nanoseconds."""
+    def classify(self, t):
+        """MATCH, LATE or FUTURE for a command stamped `t` (integer ns, see stamp_ns)."""
         if t == self.expected_ns:
             return self.MATCH
         if t < self.expected_ns:

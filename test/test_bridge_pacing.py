@@ -74,9 +74,9 @@ def test_watchdog_stale_in_simulation_time():
 def test_lockstep_gate_matches_only_the_expected_stamp():
     g = LockstepGate()
     g.expect(stamp_ns(1, 500))
-    assert g.classify(1, 500) == LockstepGate.MATCH
-    assert g.classify(1, 499) == LockstepGate.LATE
-    assert g.classify(2, 0) == LockstepGate.FUTURE
+    assert g.classify(stamp_ns(1, 500)) == LockstepGate.MATCH
+    assert g.classify(stamp_ns(1, 499)) == LockstepGate.LATE
+    assert g.classify(stamp_ns(2, 0)) == LockstepGate.FUTURE
     assert (g.late, g.future) == (1, 1)
 
 
