@@ -573,7 +573,7 @@ class ControllerCore:
         self._reinit = False
 
         try:
-            tau = self._computed_torque(cfg, q, qd, int_E) if law == 'computed_torque' else self._evaluate(int_E)
+            tau = self._evaluate(int_E)
         except (ValueError, np.linalg.LinAlgError) as exc:
             tau = self._fallback(model, q, exc)
             int_E = None
