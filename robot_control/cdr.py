@@ -59,8 +59,9 @@ class JointStateFrame(tuple):
     `.header.stamp.sec` (s), `.header.stamp.nanosec` (ns), `.header.frame_id` (str), `.name`
     (list of str: may be the decoder's cached list, do not modify), `.position` (rad or m),
     `.velocity` (rad/s or m/s), `.effort` (N*m or N): read-only float64 1-D arrays, possibly
-    views into the received buffer (tuples of float from a decoder made with arrays=False). To stay light, `.header` and `.header.stamp` are the frame
-    itself (one object per message), so `.sec`, `.nanosec` and `.frame_id` also read directly.
+    views into the received buffer (tuples of float from a decoder made with arrays=False). To
+    stay light, `.header` and `.header.stamp` are the frame itself (one object per message), so
+    `.sec`, `.nanosec` and `.frame_id` also read directly.
     """
 
     __slots__ = ()
@@ -342,10 +343,7 @@ class JointStateEncoder:
         Each listed field given as a sequence of len(names) floats (rad or m; rad/s or m/s;
         N*m or N) replaces its values; None keeps the previous ones. ValueError names the
         offending argument; nothing is written then. Returns a fresh bytes object."""
-        if type(stamp_ns) is int and 0 <= stamp_ns <= _MAX_STAMP_NS:
-            sec, nanosec = divmod(stamp_ns, NS_PER_S)
-        else:
-            sec, nanosec = _stamp(stamp_ns)
+        sec, nanosec = _stamp(stamp_ns)
         if position is not None or velocity is not None or effort is not None:
             data = self._packed(position, velocity, effort)
             if data is not None:
@@ -371,9 +369,6 @@ class JointStateEncoder:
             args = _items((position, velocity, effort)[only], n)
             if args is None:
                 return None
-        elif (type(position) is tuple and type(velocity) is tuple and type(effort) is tuple
-              and len(position) == len(velocity) == len(effort) == n):
-            args = (*position, n, *velocity, n, *effort)      # e.g. World.state_values(): as they are
         else:
             p, v, e = _items(position, n), _items(velocity, n), _items(effort, n)
             if p is None or v is None or e is None:
@@ -414,6 +409,8 @@ def _items(value, n):
 
 def _stamp(stamp_ns):
     """(sec, nanosec) of `stamp_ns` (int ns); ValueError naming 'stamp_ns' if negative or beyond int32 s."""
+    if type(stamp_ns) is int and 0 <= stamp_ns <= _MAX_STAMP_NS:     # the usual case, checked at once
+        return divmod(stamp_ns, NS_PER_S)
     if type(stamp_ns) is not int:
         try:
             stamp_ns = operator.index(stamp_ns)

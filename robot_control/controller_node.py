@@ -281,7 +281,8 @@ class ControllerNode(Node):
         except ValueError as exc:  # defensive: the core falls back to gravity hold before this
             self._reject('joint_states', f'controller: {exc}')
             return
-        self._cmd_pub.publish(self._command_encoder.encode(msg_stamp_ns, effort=self._core.tau_values))  # t_k, even 0
+        # lockstep: stamped t_k, even 0; the torque as the list the core made (no numpy call to serialize it)
+        self._cmd_pub.publish(self._command_encoder.encode(msg_stamp_ns, effort=self._core.tau_values))
         if self._array_pub is not None:
             self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
         self.tick_stats.add(time.perf_counter_ns() - t_in)

@@ -295,8 +295,6 @@ class UrdfModel(RobotModel):
     # -- the laws' fast path (RobotModel): arguments already checked ------------------------------
     def _inverse_dynamics(self, q, qd, qdd):
         """RNEA, one Pinocchio call; a new (n,) array."""
-        if self._in_order:      # the joints are Pinocchio's q and v as they are: no reordering calls
-            return pin.rnea(self.model, self._data, q, qd, qdd)
         return self._joint_order(pin.rnea(self.model, self._data, self._pin_q(q), self._pin_v(qd),
                                           self._pin_v(qdd, self._a)))
 
