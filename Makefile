@@ -30,7 +30,7 @@ demo: $(STAMP)
 	$(PY) -m robot_control.demo --scenario $(SCENARIO)
 
 bench: $(STAMP)
-	$(PY) -m robot_control.bench $(if $(filter 1,$(QUICK)),--quick,)
+	$(PY) -m robot_control.tools.bench $(if $(filter 1,$(QUICK)),--quick,)
 
 clean:
 	rm -rf $(VENV) out build install log *.egg-info

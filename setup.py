@@ -25,9 +25,9 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'controller_node = robot_control.controller_node:main',
+            'controller_node = robot_control.ros.controller_node:main',
             'sim_bridge_node = sim_bridge.bridge_node:main',
-            'record = robot_control.record:main',
+            'record = robot_control.tools.record:main',
         ],
     },
 )

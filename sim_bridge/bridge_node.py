@@ -21,7 +21,7 @@ Pacing (parameter `mode`):
   step runs with the last valid command (brakes if there is none), so a faulty controller
   cannot stall the simulation.
 - realtime: a steady-clock timer runs the control ticks that are due at real_time_factor
-  (sim_bridge.pacing.RealtimePacer; it re-anchors after a stall of more than 0.1 s rather than
+  (sim_bridge.loop.RealtimePacer; it re-anchors after a stall of more than 0.1 s rather than
   bursting). The latest valid command is held; no valid command for command_timeout of
   simulation time (or none yet) engages the World's brakes, a fresh command releases them.
 
@@ -32,7 +32,7 @@ topic (the ROS graph, counted every 0.1 s and whenever a lockstep state is answe
 commands on both command topics engage the brakes, with an ERROR on /diagnostics, until
 command_timeout of simulation time has passed without such evidence.
 The node never reads a parameter in the loop: it works on a validated snapshot
-(sim_bridge.bridge_params.BridgeConfig) that the parameter callbacks replace.
+(sim_bridge.parameters.BridgeConfig) that the parameter callbacks replace.
 
 Diagnostics: three statuses, `sim_bridge: pacing` (mode, sim_time, achieved_real_time_factor,
 overruns, republished_states, late_commands), `sim_bridge: commands` (accepted, rejected and
@@ -40,12 +40,12 @@ rejected_<reason> counts, last_reject_reason, command_age, publishers per topic,
 publisher_conflicts) and `sim_bridge: brakes` (engaged, reason, events); published every
 diagnostics_period and at once when the brakes change.
 
-QoS: joint_states, ft_sensor/wrench and both command topics robot_control.qos.CONTROL_QOS
+QoS: joint_states, ft_sensor/wrench and both command topics robot_control.ros.qos.CONTROL_QOS
 (RELIABLE, KEEP_LAST 1, VOLATILE); /clock RELIABLE KEEP_LAST 1 (serves best-effort clock
 subscribers too); /diagnostics DIAGNOSTICS_QOS (RELIABLE, KEEP_LAST 10). Timers run on the
 steady clock, so `use_sim_time: true` given to this node by a shared YAML is harmless.
 
-Speed: robot_joint_commands is taken as serialized bytes and read by robot_control.cdr (rclpy
+Speed: robot_joint_commands is taken as serialized bytes and read by robot_control.ros.cdr (rclpy
 decodes what that declines); joint_states is a preallocated serialized message whose arrays the
 World fills in place. joint_states goes out before /clock and the bookkeeping.
 
@@ -73,11 +73,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from robot_control import cdr, conversions, scenarios, spin
-from robot_control.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
-from robot_control.throttle import Throttle
-from sim_bridge import bridge_params
-from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
+from robot_control.ros import cdr, conversions, spin
+from robot_control import scenarios
+from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
+from robot_control.ros.throttle import Throttle
+from sim_bridge import parameters as bridge_params
+from sim_bridge.loop import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
                                RealtimePacer, SourceGuard, stamp_ns)
 
 NS = 1_000_000_000
@@ -140,7 +141,7 @@ class SimBridge(Node):
         n = len(self.joint_names)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
 
-        # -- preallocated messages: joint_states as serialized bytes (robot_control.cdr: a few us, where
+        # -- preallocated messages: joint_states as serialized bytes (robot_control.ros.cdr: a few us, where
         # rclpy's conversion of a JointState costs tens), one Time shared by the other headers
         self._js_encoder = cdr.JointStateEncoder(self.joint_names)
         self._cmd_decoder = cdr.JointStateDecoder(arrays=False)          # efforts as floats: no numpy per tick
@@ -329,7 +330,7 @@ class SimBridge(Node):
 
     # -- commands in --------------------------------------------------------------------------
     def _on_joint_command_raw(self, data):
-        """robot_joint_commands as DDS delivered it: decoded by robot_control.cdr, or by rclpy when
+        """robot_joint_commands as DDS delivered it: decoded by robot_control.ros.cdr, or by rclpy when
         the fast decoder declines (e.g. big-endian CDR from another vendor)."""
         msg = self._cmd_decoder.decode(data)
         self._on_joint_command(deserialize_message(data, JointState) if msg is None else msg)

@@ -17,9 +17,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from robot_control import conversions
-from robot_control.qos import CONTROL_QOS, DIAGNOSTICS_QOS
-from robot_control.spin import make_executor
+from robot_control.ros import conversions
+from robot_control.ros.qos import CONTROL_QOS, DIAGNOSTICS_QOS
+from robot_control.ros.spin import make_executor
 from sim_bridge.bridge_node import CLOCK_QOS, SimBridge
 
 NS = 1_000_000_000

@@ -1,4 +1,4 @@
-"""Serialized messages the nodes' fast decoder (robot_control.cdr) declines, for the fallback tests."""
+"""Serialized messages the nodes' fast decoder (robot_control.ros.cdr) declines, for the fallback tests."""
 import struct
 
 

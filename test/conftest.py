@@ -17,9 +17,11 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 70))
 os.environ.pop('ROS_STATIC_PEERS', None)
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+for path in (ROOT, HERE):   # the package under test, and the shared helpers beside this file
+    if path not in sys.path:
+        sys.path.insert(0, path)
 
 
 @pytest.fixture

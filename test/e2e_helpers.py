@@ -1,6 +1,6 @@
 """Helpers of the end-to-end tests: demo runs on private DDS domains, shared between tests.
 
-Every run is `robot_control.demo.run` in lockstep: sim_bridge_node and controller_node as OS
+Every run is `robot_control.tools.demo.run` in lockstep: sim_bridge_node and controller_node as OS
 processes (stopped by pid in the run's `finally`), the reference publisher and the collector
 in this process. Each run claims a free ROS_DOMAIN_ID in E2E_DOMAINS with a lock file, so runs
 of this suite, of a concurrent suite, or of two workers never share a domain; discovery is
@@ -17,8 +17,8 @@ import threading
 
 import numpy as np
 
-from robot_control import demo, demo_metrics
-from robot_control.demo_procs import DomainClaim
+from robot_control.tools import demo, demo_metrics
+from robot_control.tools.demo_procs import DomainClaim
 
 E2E_DOMAINS = range(71, 81)
 WORKERS = int(os.environ.get('E2E_WORKERS', '2'))
@@ -82,7 +82,7 @@ PHYSICS_KEYS = ('rms_error', 'max_error', 'final_error', 'steady_state_error', '
 
 def physics_summary(data, experiment_name, duration):
     """The run-independent part of the summary (no wall-clock figures) of `data`."""
-    from robot_control import demo_experiments
+    from robot_control.tools import demo_experiments
     s = demo_metrics.summarize(data, demo_experiments.get(experiment_name), 'lockstep', duration)
     return {k: s[k] for k in PHYSICS_KEYS}
 

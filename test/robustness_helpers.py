@@ -158,7 +158,7 @@ def controller(domain_id, log_dir, scenario='polar_two_link', namespace=None, **
     if namespace:
         args += ['-p', f'scenario:={scenario}', '-p', 'use_sim_time:=true', '-r', f'__ns:={namespace}',
                  '-r', f'/clock:={namespace}/clock']
-    return NodeProcess('robot_control.controller_node', args, domain_id, log_dir, name='controller')
+    return NodeProcess('robot_control.ros.controller_node', args, domain_id, log_dir, name='controller')
 
 
 # -- waiting -------------------------------------------------------------------------------------------------------
@@ -653,7 +653,7 @@ class Monitor:
         self.wrenches.append((self._stamp(msg), np.array([f.x, f.y, f.z])))
 
     def _on_diag(self, msg):
-        from robot_control.conversions import diagnostic_values
+        from robot_control.ros.conversions import diagnostic_values
         self.diagnostics.append((self._stamp(msg), time.monotonic(),
                                  {s.name: diagnostic_values(s) for s in msg.status}))
 
@@ -710,7 +710,7 @@ def flood(domain_id, joints, seconds, rate, out_path, topic='joint_states'):
     import rclpy
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
-    from robot_control.qos import CONTROL_QOS
+    from robot_control.ros.qos import CONTROL_QOS
     ctx = rclpy.Context()
     rclpy.init(context=ctx, domain_id=int(domain_id))
     node = Node('flood', context=ctx)

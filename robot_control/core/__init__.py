@@ -1,0 +1,1 @@
+"""The control core: the per-tick controller, its references, integral and guards (no rclpy)."""

@@ -1,0 +1,368 @@
+"""Message <-> array conversions: the only module that reads or writes message fields.
+
+Like cv_bridge: every function turns one ROS message into float64 numpy arrays (or back),
+joints matched by name, never by index. Bad input raises ValueError whose message starts
+with the offending field, e.g. "position['r']: not finite (nan)"; the node turns that into a
+rejected-input diagnostic.
+
+Conventions
+- Times are integer nanoseconds (`stamp_to_ns`), exact; callers convert to seconds.
+- JointState in: the controlled `joints` must all be present, once each, with finite position
+  and velocity; `position` and `velocity` must have one entry per name. Names that are not
+  controlled are ignored (a real `joint_states` carries grippers, other arms, ...) and so are
+  their values. `effort` is not read.
+- Wrench: the force components along the task axes named 'x', 'y', 'z' (the torque part is
+  not used by the laws here). The force is the one the robot exerts on the environment.
+"""
+import array
+import math
+
+import numpy as np
+from builtin_interfaces.msg import Duration, Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import WrenchStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from robot_control import validation
+
+NS_PER_S = 1_000_000_000
+#: largest magnitude accepted in a measurement or reference (rad, m, rad/s, m/s, N, ...): beyond it a
+#: value is not physical but a corrupted message, and would overflow the laws or the error integral
+MAX_ABS = 1e6
+_F64 = np.dtype(np.float64)
+
+
+def _sane(values):
+    """True when the non-empty sequence of floats `values` is finite and within +-MAX_ABS: one Python
+    sum, max and min (a NaN or an inf makes the sum non-finite)."""
+    return math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS
+
+
+def _plausible(a):
+    """True when every entry of the float array `a` is finite and |a_i| <= MAX_ABS."""
+    values = a.tolist()
+    return not values or (max(values) <= MAX_ABS and min(values) >= -MAX_ABS)
+WRENCH_AXES = ('x', 'y', 'z')
+
+
+# -- time --------------------------------------------------------------------------------------
+def stamp_to_ns(stamp):
+    """builtin_interfaces/Time (or Duration) -> integer nanoseconds."""
+    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
+def ns_to_stamp(ns, out=None):
+    """Integer nanoseconds (>= 0) -> builtin_interfaces/Time; fills `out` in place when given."""
+    ns = int(ns)
+    if ns < 0:
+        raise ValueError(f'ns: expected a non-negative time, got {ns}')
+    out = Time() if out is None else out
+    out.sec, out.nanosec = divmod(ns, NS_PER_S)
+    return out
+
+
+def duration_to_s(duration):
+    """builtin_interfaces/Duration -> float seconds."""
+    return int(duration.sec) + int(duration.nanosec) * 1e-9
+
+
+def s_to_duration(seconds):
+    """Float seconds -> builtin_interfaces/Duration rounded to the nanosecond."""
+    seconds = validation.scalar('seconds', seconds)
+    ns = int(round(seconds * NS_PER_S))
+    sec, nanosec = divmod(ns, NS_PER_S)
+    return Duration(sec=sec, nanosec=nanosec)
+
+
+# -- joint states ------------------------------------------------------------------------------
+class JointStateReader:
+    """Reads q, qd of `joints` out of sensor_msgs/JointState by name, into preallocated arrays.
+
+    read(msg) -> (q, qd): (n,) float64 arrays valid until the next read (copy them to keep
+    them): internal buffers, or a robot_control.ros.cdr frame's own read-only arrays. The name ->
+    index map is cached while the message's name list does not change, so a steady stream costs
+    one list comparison and at most two copies per message (none for a cdr frame of arrays that
+    lists exactly the controlled joints in their order). A cdr frame of floats
+    (JointStateDecoder(arrays=False)) is checked on its floats, then copied: no other numpy call.
+    """
+
+    def __init__(self, joints):
+        self.joints = validation.names('joints', joints)
+        if not self.joints:
+            raise ValueError('joints: expected at least one joint name')
+        n = len(self.joints)
+        self._q = np.zeros(n)
+        self._qd = np.zeros(n)
+        self._names = None
+        self._index = None
+        self._in_order = False      # the cached names are exactly `joints`, in order
+
+    def _index_for(self, names):
+        if names == self._names:
+            return self._index
+        seen = {}
+        for i, name in enumerate(names):
+            if name in seen:
+                raise ValueError(f'name: duplicate joint {name!r}')
+            seen[name] = i
+        missing = [j for j in self.joints if j not in seen]
+        if missing:
+            raise ValueError(f'name: missing controlled joints {missing} (got {list(names)})')
+        self._index = np.array([seen[j] for j in self.joints], dtype=np.intp)
+        self._names = list(names)
+        self._in_order = self._names == list(self.joints)
+        return self._index
+
+    def read(self, msg):
+        names, position, velocity = msg.name, msg.position, msg.velocity
+        k = len(names)
+        if len(position) != k:
+            raise ValueError(f'position: expected one entry per name ({k}), got {len(position)}')
+        if len(velocity) != k:
+            raise ValueError(f'velocity: expected one entry per name ({k}), got {len(velocity)}')
+        index = self._index_for(names)
+        q, qd = self._q, self._qd
+        if self._in_order and type(position) is tuple and type(velocity) is tuple:
+            values = position + velocity  # a cdr frame's floats: checked before any numpy call
+            try:
+                ok = _sane(values)
+            except TypeError:             # not numbers: the array path below names them
+                ok = False
+            if ok:
+                q[:] = position
+                qd[:] = velocity
+                return q, qd
+        if not self._in_order:
+            np.take(np.asarray(position, dtype=float), index, out=q)
+            np.take(np.asarray(velocity, dtype=float), index, out=qd)
+        elif (type(position) is np.ndarray and type(velocity) is np.ndarray and position.dtype is _F64
+              and velocity.dtype is _F64 and position.ndim == velocity.ndim == 1):
+            q, qd = position, velocity    # a robot_control.ros.cdr frame's read-only views: no copy
+        else:
+            q[:] = position               # array.array (a received message): one buffer copy
+            qd[:] = velocity
+        values = q.tolist() + qd.tolist()    # one Python pass: finite and plausible
+        if _sane(values):
+            return q, qd
+        if q is not self._q:
+            self._q[:], self._qd[:] = q, qd
+        for field, values in (('position', self._q), ('velocity', self._qd)):
+            if not np.isfinite(values).all():
+                bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
+                raise ValueError(f'{field}: not finite for {", ".join(bad)}')
+            if not _plausible(values):
+                bad = [f'{self.joints[i]!r}: {values[i]:g}' for i in np.flatnonzero(np.abs(values) > MAX_ABS)]
+                raise ValueError(f'{field}: implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')
+        return self._q, self._qd
+
+
+def joint_state(names, stamp_ns=0, position=(), velocity=(), effort=(), frame_id='', out=None):
+    """sensor_msgs/JointState with the given names and float arrays (empty fields stay empty)."""
+    msg = JointState() if out is None else out
+    msg.header.frame_id = frame_id
+    ns_to_stamp(stamp_ns, msg.header.stamp)
+    msg.name = list(names)
+    msg.position = _float_array(position)
+    msg.velocity = _float_array(velocity)
+    msg.effort = _float_array(effort)
+    return msg
+
+
+def _float_array(values):
+    """array.array('d') of `values` (what a float64[] message field holds): one copy, no list."""
+    return array.array('d', np.asarray(values, dtype=float).tobytes())
+
+
+def joint_state_arrays(msg):
+    """(names tuple, stamp_ns, position, velocity, effort) of a JointState, unvalidated, by index."""
+    return (tuple(msg.name), stamp_to_ns(msg.header.stamp), np.asarray(msg.position, dtype=float),
+            np.asarray(msg.velocity, dtype=float), np.asarray(msg.effort, dtype=float))
+
+
+def effort_array(tau, out=None):
+    """std_msgs/Float64MultiArray of the efforts in `joints` order (forward effort controller)."""
+    msg = Float64MultiArray() if out is None else out
+    msg.data = _float_array(tau)
+    return msg
+
+
+def effort_array_values(msg):
+    """The data of a Float64MultiArray as a float64 array."""
+    return np.asarray(msg.data, dtype=float)
+
+
+# -- trajectories ------------------------------------------------------------------------------
+class TrajectoryGoal:
+    """A validated JointTrajectory in controller order: all arrays float64, times in s.
+
+    stamp_ns: header.stamp (0 = start when received); times (k,) time_from_start, strictly
+    increasing and > 0; positions (k, n); velocities, accelerations (k, n) or None.
+    """
+
+    __slots__ = ('stamp_ns', 'times', 'positions', 'velocities', 'accelerations')
+
+    def __init__(self, stamp_ns, times, positions, velocities=None, accelerations=None):
+        self.stamp_ns = stamp_ns
+        self.times = times
+        self.positions = positions
+        self.velocities = velocities
+        self.accelerations = accelerations
+
+
+def _point_field(points, field, n, order, required):
+    """(k, n) array of `field` from every point (reordered to the controller's joints), or None."""
+    sizes = {len(getattr(p, field)) for p in points}
+    if sizes == {0} and not required:
+        return None
+    if sizes != {n}:
+        for i, p in enumerate(points):
+            if len(getattr(p, field)) != n:
+                what = 'one entry per joint name' if required else 'none, or one entry per joint name in every point'
+                raise ValueError(f'points[{i}].{field}: expected {what} ({n}), got {len(getattr(p, field))}')
+    out = np.empty((len(points), n))
+    for i, p in enumerate(points):
+        row = np.asarray(getattr(p, field), dtype=float)
+        if not np.isfinite(row).all():
+            raise ValueError(f'points[{i}].{field}: not finite {row.tolist()}')
+        if not _plausible(row):
+            raise ValueError(f'points[{i}].{field}: implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
+        out[i] = row[order]
+    return out
+
+
+def trajectory_goal(msg, joints):
+    """Validate a trajectory_msgs/JointTrajectory against `joints` -> TrajectoryGoal (joints order).
+
+    Like joint_trajectory_controller: names in any order but exactly the controlled set, at
+    least one point, time_from_start strictly increasing and > 0, finite values; velocities and
+    accelerations either absent from every point or given for every joint in every point.
+    """
+    joints = tuple(joints)
+    names = list(msg.joint_names)
+    if len(set(names)) != len(names):
+        raise ValueError(f'joint_names: duplicate names in {names}')
+    if set(names) != set(joints):
+        unknown = sorted(set(names) - set(joints))
+        missing = sorted(set(joints) - set(names))
+        raise ValueError(f'joint_names: unknown {unknown}, missing {missing} (controlled joints {list(joints)})')
+    points = msg.points
+    if not points:
+        raise ValueError('points: empty trajectory')
+    n = len(joints)
+    order = np.array([names.index(j) for j in joints], dtype=np.intp)
+    times = np.array([duration_to_s(p.time_from_start) for p in points])
+    if not times[0] > 0.0:
+        raise ValueError(f'points[0].time_from_start: expected > 0 s, got {times[0]:g} s')
+    steps = np.diff(times)
+    if np.any(steps <= 0.0):
+        i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+        raise ValueError(f'points[{i}].time_from_start: not after points[{i - 1}] '
+                         f'({times[i]:g} s <= {times[i - 1]:g} s)')
+    positions = _point_field(points, 'positions', n, order, required=True)
+    velocities = _point_field(points, 'velocities', n, order, required=False)
+    accelerations = _point_field(points, 'accelerations', n, order, required=False)
+    return TrajectoryGoal(stamp_to_ns(msg.header.stamp), times, positions, velocities, accelerations)
+
+
+def joint_trajectory(joints, times, positions, velocities=None, accelerations=None, stamp_ns=0):
+    """trajectory_msgs/JointTrajectory from per-point rows: times (k,) s, positions (k, n), ...
+
+    Rows are written as given (not validated), so malformed messages can be built for tests.
+    """
+    msg = JointTrajectory()
+    ns_to_stamp(stamp_ns, msg.header.stamp)
+    msg.joint_names = list(joints)
+    for i, t in enumerate(times):
+        p = JointTrajectoryPoint()
+        p.time_from_start = s_to_duration(t)
+        p.positions = [float(v) for v in positions[i]]
+        if velocities is not None:
+            p.velocities = [float(v) for v in velocities[i]]
+        if accelerations is not None:
+            p.accelerations = [float(v) for v in accelerations[i]]
+        msg.points.append(p)
+    return msg
+
+
+# -- wrenches ----------------------------------------------------------------------------------
+def _axis_indices(axes):
+    try:
+        return [WRENCH_AXES.index(a) for a in axes]
+    except ValueError:
+        raise ValueError(f'axes: task axes {list(axes)} must be named from {list(WRENCH_AXES)} '
+                         'to be read from a wrench') from None
+
+
+def wrench_force(msg, axes, out=None):
+    """Force components of a geometry_msgs/WrenchStamped along task `axes` (names 'x'|'y'|'z'), N."""
+    idx = _axis_indices(axes)
+    f = msg.wrench.force
+    xyz = (f.x, f.y, f.z)
+    out = np.empty(len(idx)) if out is None else out
+    for k, i in enumerate(idx):
+        out[k] = xyz[i]
+    if not np.isfinite(out).all():
+        raise ValueError(f'wrench.force: not finite {list(xyz)}')
+    if not _plausible(out):
+        raise ValueError(f'wrench.force: implausible magnitude (> {MAX_ABS:g} N) {list(xyz)}')
+    return out
+
+
+def wrench_stamped(force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), stamp_ns=0, frame_id=''):
+    """geometry_msgs/WrenchStamped from a force (3,) N and torque (3,) N m."""
+    msg = WrenchStamped()
+    ns_to_stamp(stamp_ns, msg.header.stamp)
+    msg.header.frame_id = frame_id
+    fx, fy, fz = (float(v) for v in validation.vector('force', force, 3))
+    tx, ty, tz = (float(v) for v in validation.vector('torque', torque, 3))
+    msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z = fx, fy, fz
+    msg.wrench.torque.x, msg.wrench.torque.y, msg.wrench.torque.z = tx, ty, tz
+    return msg
+
+
+def wrench_along(axes, values, stamp_ns=0, frame_id=''):
+    """WrenchStamped whose force has `values` on task `axes` ('x'|'y'|'z') and 0 elsewhere."""
+    values = validation.vector('values', values, len(axes))
+    force = [0.0, 0.0, 0.0]
+    for i, v in zip(_axis_indices(axes), values):
+        force[i] = float(v)
+    return wrench_stamped(force, stamp_ns=stamp_ns, frame_id=frame_id)
+
+
+# -- diagnostics -------------------------------------------------------------------------------
+LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN,
+          'ERROR': DiagnosticStatus.ERROR, 'STALE': DiagnosticStatus.STALE}
+
+
+def _text(value):
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else str(value)
+    return str(value)
+
+
+def diagnostic_status(name, level, message, values=(), hardware_id=''):
+    """diagnostic_msgs/DiagnosticStatus; level 'OK'|'WARN'|'ERROR'|'STALE'; values (key, value) pairs."""
+    status = DiagnosticStatus()
+    status.level = LEVELS[level]
+    status.name = name
+    status.message = message
+    status.hardware_id = hardware_id
+    items = values.items() if isinstance(values, dict) else values
+    status.values = [KeyValue(key=str(k), value=_text(v)) for k, v in items]
+    return status
+
+
+def diagnostic_array(statuses, stamp_ns):
+    """diagnostic_msgs/DiagnosticArray of `statuses` stamped `stamp_ns`."""
+    msg = DiagnosticArray()
+    ns_to_stamp(stamp_ns, msg.header.stamp)
+    msg.status = list(statuses)
+    return msg
+
+
+def diagnostic_values(status):
+    """(level name, message, {key: value}) of a DiagnosticStatus."""
+    level = {v: k for k, v in LEVELS.items()}[status.level]
+    return level, status.message, {kv.key: kv.value for kv in status.values}

@@ -1,0 +1,363 @@
+"""Benchmarks B2 and B3 (issue 6): closed loops over DDS between separate processes.
+
+The bridge (`python -m sim_bridge.bridge_node`) and the controller (`python -m
+robot_control.ros.controller_node`) run as the user runs them, `--ros-args --params-file
+config/<scenario>.yaml`, with a 1 ms control period. The bench watches `joint_states` and
+`robot_joint_commands` without an executor: raw subscriptions whose samples it takes straight
+from DDS every few ms, each with its header stamp and the DDS source (publish) and reception
+timestamps (ns, the system clock, shared by all processes of this machine). No Python runs per
+message in the bench, so watching costs the loop next to nothing.
+
+B2 lockstep: steps/s = (stamp advance / control period) / (reception time advance) over a
+window, for polar_two_link, iiwa and the bare ping-pong (robot_control.tools.bench_pingpong) with the
+same messages, QoS and executors, interleaved round by round; medians over the rounds.
+B3 realtime at 1 kHz, per scenario, from the samples of the whole run:
+- latency of period k = reception of command k (at the bench) - publication of state k (bridge);
+- deadline hit: command k received before state k+1 was published (the bridge publishes
+  right after the physics step, so this is "before the next step" up to that step's duration);
+  a period whose command never arrives is a miss;
+- real-time factor = simulated time advance / publication time advance of the states.
+Headline B3 keys are the worse of the two scenarios; per-scenario keys carry _polar / _iiwa.
+"""
+import importlib
+import math
+import os
+import signal
+import struct
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from robot_control import scenarios
+from robot_control.tools.demo_procs import die_with_parent
+
+NS = 1_000_000_000
+PERIOD_NS = 1_000_000                 # control period of every DDS run, 1 ms
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+STOP_GRACE_S = 2.0                    # SIGTERM -> SIGKILL
+START_TIMEOUT_S = 60.0                # first sample after the processes start
+POLL_S = 0.01
+OBSERVER_DEPTH = 1000
+SHORT = {'polar_two_link': 'polar', 'iiwa': 'iiwa'}
+
+
+def ros_env(domain_id):
+    """Environment of every DDS process: discovery on this machine, a domain of this run's own."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', ROS_DOMAIN_ID=str(domain_id),
+               PYTHONUNBUFFERED='1')
+    env.pop('ROS_STATIC_PEERS', None)
+    return env
+
+
+# -- child processes -----------------------------------------------------------------------------
+class Children:
+    """The processes of one run; leaving the `with` block stops every one (SIGTERM, then SIGKILL)."""
+
+    def __init__(self, env, logdir):
+        self.env, self.logdir = env, logdir
+        self.procs = []            # (name, Popen, log file)
+        self.killed = []           # names that ignored SIGTERM
+
+    def start(self, name, argv):
+        os.makedirs(self.logdir, exist_ok=True)
+        log = open(os.path.join(self.logdir, f'{name}.log'), 'w', encoding='utf-8')
+        try:
+            proc = subprocess.Popen([sys.executable, *argv], env=self.env, cwd=ROOT, stdout=log,
+                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=die_with_parent)
+        except BaseException:
+            log.close()
+            raise
+        self.procs.append((name, proc, log))
+
+    def check_alive(self):
+        """RuntimeError naming a process that exited, with the end of its log."""
+        for name, proc, log in self.procs:
+            if proc.poll() is not None:
+                log.flush()
+                with open(log.name, encoding='utf-8', errors='replace') as f:
+                    tail = f.read()[-2000:]
+                raise RuntimeError(f'{name} exited with code {proc.returncode}:\n{tail}')
+
+    def stop(self):
+        for _, proc, _ in self.procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        deadline = time.monotonic() + STOP_GRACE_S
+        for name, proc, log in self.procs:
+            try:
+                proc.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+                self.killed.append(name)
+            log.close()
+        self.procs = []
+
+
+def node_executor(module):
+    """The executor `module`'s main() spins by default: the default of its --executor option
+    ('events' or 'single'), 'single' (SingleThreadedExecutor) for a node without that option."""
+    parse = getattr(importlib.import_module(module), '_parse_args', None)
+    try:
+        return getattr(parse([]), 'executor', 'single') if parse else 'single'
+    except SystemExit:
+        return 'single'
+
+
+def node_commands(kind, mode):
+    """[(name, argv)] of the two processes of a run: 'pingpong' or a scenario name. The ping-pong
+    ends use the executors of the nodes they stand for: ping the bridge's, pong the controller's."""
+    if kind == 'pingpong':
+        joints = list(scenarios.get('polar_two_link').joints)
+        ends = (('ping', 'sim_bridge.bridge_node'), ('pong', 'robot_control.ros.controller_node'))
+        return [(role, ['-m', 'robot_control.tools.bench_pingpong', role, '--joints', *joints,
+                        '--executor', node_executor(module)]) for role, module in ends]
+    params = os.path.join(ROOT, 'config', f'{kind}.yaml')
+    bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params, '-p', f'mode:={mode}',
+              '-p', 'physics_step:=0.001', '-p', f'control_period:={PERIOD_NS / NS}', '-p', 'real_time_factor:=1.0']
+    controller = ['-m', 'robot_control.ros.controller_node', '--ros-args', '--params-file', params]
+    return [('sim_bridge', bridge), ('controller', controller)]
+
+
+# -- observing DDS -------------------------------------------------------------------------------
+def _ignore(_msg):
+    pass
+
+
+def header_stamp_ns(cdr):
+    """header.stamp of a serialized (CDR) message whose first field is a Header, ns."""
+    sec, nanosec = struct.unpack_from('<iI' if cdr[1] & 1 else '>iI', cdr, 4)   # encapsulation: CDR_LE / CDR_BE
+    return sec * NS + nanosec
+
+
+class Observer:
+    """Raw subscriptions to joint_states and robot_joint_commands, read by take() (no executor)."""
+
+    TOPICS = ('joint_states', 'robot_joint_commands')
+
+    def __init__(self, context):
+        from rclpy.node import Node
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
+        self.node = Node('bench_observer', context=context)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=OBSERVER_DEPTH,
+                         reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.subs = {t: self.node.create_subscription(JointState, t, _ignore, qos, raw=True) for t in self.TOPICS}
+
+    def take(self, topic):
+        """Every queued sample of `topic` as (stamp, source, received) rows, ns; (0, 3) when none.
+
+        Takes through the subscription's handle, as rclpy's executors do, to get the message info."""
+        sub = self.subs[topic]
+        rows = []
+        with sub.handle:
+            while True:
+                taken = sub.handle.take_message(sub.msg_type, True)
+                if taken is None:
+                    break
+                cdr, info = taken
+                rows.append((header_stamp_ns(cdr), info['source_timestamp'], info['received_timestamp']))
+        return np.array(rows, dtype=np.int64).reshape(-1, 3)
+
+    def drain(self):
+        for topic in self.TOPICS:
+            self.take(topic)
+
+    def wait_for(self, topic, procs, timeout=START_TIMEOUT_S):
+        """The first sample of `topic` (after draining older ones); RuntimeError on timeout or a dead child."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            rows = self.take(topic)
+            if len(rows):
+                return rows[-1]
+            procs.check_alive()
+            time.sleep(POLL_S)
+        raise RuntimeError(f'no {topic} within {timeout:g} s')
+
+    def destroy(self):
+        self.node.destroy_node()
+
+
+def ros_context(env):
+    """A fresh rclpy context on env's domain; SIGINT/SIGTERM stay with Python (cleanup in finally)."""
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = env['ROS_AUTOMATIC_DISCOVERY_RANGE']
+    os.environ['ROS_DOMAIN_ID'] = env['ROS_DOMAIN_ID']
+    os.environ.pop('ROS_STATIC_PEERS', None)
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=int(env['ROS_DOMAIN_ID']), signal_handler_options=SignalHandlerOptions.NO)
+    return ctx
+
+
+class Session:
+    """An rclpy context with one Observer, for all runs of B2 or B3."""
+
+    def __init__(self, env, logdir):
+        self.env, self.logdir = env, logdir
+        self.ctx = ros_context(env)
+        try:
+            self.observer = Observer(self.ctx)
+        except BaseException:
+            self.close(observer=False)
+            raise
+        self.killed = set()
+
+    def close(self, observer=True):
+        import rclpy
+        if observer:
+            self.observer.destroy()
+        rclpy.try_shutdown(context=self.ctx)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def run(self, kind, mode, measure):
+        """Start the two processes of `kind`, wait for the loop to answer, return measure(observer, procs)."""
+        procs = Children(self.env, os.path.join(self.logdir, f'{kind}_{mode}'))
+        try:
+            for name, argv in node_commands(kind, mode):
+                procs.start(name, argv)
+            self.observer.drain()
+            self.observer.wait_for('robot_joint_commands', procs)
+            return measure(self.observer, procs)
+        finally:
+            procs.stop()
+            self.killed.update(procs.killed)
+
+
+# -- B2 ------------------------------------------------------------------------------------------
+def cpu_seconds(pids):
+    """User + system CPU time consumed so far by processes `pids` (all threads), s."""
+    total = 0
+    for pid in pids:
+        with open(f'/proc/{pid}/stat', encoding='ascii') as f:
+            fields = f.read().rpartition(')')[2].split()
+        total += int(fields[11]) + int(fields[12])          # utime, stime (fields 14, 15)
+    return total / os.sysconf('SC_CLK_TCK')
+
+
+def steps_per_s(first, last):
+    """Control steps per second between two joint_states samples (stamp, source, received)."""
+    wall = (last[2] - first[2]) / NS
+    return (last[0] - first[0]) / PERIOD_NS / wall if wall > 0 else 0.0
+
+
+def lockstep_window(plan):
+    """measure() -> (steps/s, CPU us of both processes per step) over one window."""
+    def measure(observer, procs):
+        pids = [proc.pid for _, proc, _ in procs.procs]
+        time.sleep(plan.dds_warmup_s)
+        observer.drain()
+        first, cpu0 = observer.wait_for('joint_states', procs), cpu_seconds(pids)
+        time.sleep(plan.dds_window_s)
+        procs.check_alive()
+        last, cpu1 = observer.wait_for('joint_states', procs), cpu_seconds(pids)
+        steps = (last[0] - first[0]) / PERIOD_NS
+        return steps_per_s(first, last), (cpu1 - cpu0) * 1e6 / steps if steps > 0 else math.inf
+    return measure
+
+
+def bench_lockstep(plan, env, log, logdir):
+    """B2 metrics: ping-pong, polar and iiwa interleaved for plan.dds_rounds rounds."""
+    kinds = ('pingpong', 'polar_two_link', 'iiwa')
+    runs = {k: [] for k in kinds}
+    with Session(env, logdir) as session:
+        for r in range(plan.dds_rounds):
+            for kind in kinds:
+                runs[kind].append(session.run(kind, 'lockstep', lockstep_window(plan)))
+                rate, cpu = runs[kind][-1]
+                log(f'  round {r + 1}/{plan.dds_rounds} {kind}: {rate:.0f} steps/s, {cpu:.0f} us CPU per step')
+        warn_killed(session.killed, log)
+    med = {k: np.median(np.array(v), axis=0) for k, v in runs.items()}
+    out = {'lockstep_steps_per_s_polar': med['polar_two_link'][0], 'lockstep_steps_per_s_iiwa': med['iiwa'][0],
+           'pingpong_roundtrips_per_s': med['pingpong'][0]}
+    ratios = {s: med[s][0] / med['pingpong'][0] for s in ('polar_two_link', 'iiwa')}
+    out['lockstep_vs_pingpong_ratio'] = min(ratios.values())
+    out.update({f'lockstep_vs_pingpong_ratio_{SHORT[s]}': v for s, v in ratios.items()})
+    # CPU per step of both processes: what a step costs, whatever else runs on the machine
+    out.update({f'lockstep_cpu_us_per_step_{SHORT[s]}': med[s][1] for s in ('polar_two_link', 'iiwa')})
+    out['pingpong_cpu_us_per_roundtrip'] = med['pingpong'][1]
+    return {k: float(v) for k, v in out.items()}
+
+
+# -- B3 ------------------------------------------------------------------------------------------
+def realtime_metrics(states, commands, period_ns=PERIOD_NS):
+    """{hit_ratio, latency_p50_ms, latency_p99_ms, rtf} from (stamp, source, received) rows."""
+    published = {}
+    for stamp, source, _ in states:
+        published.setdefault(int(stamp), int(source))
+    received = {}
+    for stamp, _, recv in commands:
+        received.setdefault(int(stamp), int(recv))
+    stamps = sorted(published)
+    periods = [k for k in stamps if k + period_ns in published]
+    if len(periods) < 2:
+        raise RuntimeError(f'realtime: only {len(periods)} control periods observed')
+    hits = sum(1 for k in periods if k in received and received[k] < published[k + period_ns])
+    latency = np.array([received[k] - published[k] for k in stamps if k in received], dtype=float) / 1e6
+    if not len(latency):
+        raise RuntimeError('realtime: no command answered an observed state')
+    rtf = (stamps[-1] - stamps[0]) / (published[stamps[-1]] - published[stamps[0]])
+    return {'hit_ratio': hits / len(periods), 'latency_p50_ms': float(np.median(latency)),
+            'latency_p99_ms': float(np.percentile(latency, 99)), 'rtf': float(rtf)}
+
+
+def _wait_for_loop(observer, timeout_s=30.0):
+    """Block until the observer receives both states and commands, at most timeout_s: the controller
+    answers (start-up, discovery, model loading) and the observer has matched both writers (DDS
+    discovers each writer on its own, sometimes seconds apart)."""
+    deadline = time.monotonic() + timeout_s
+    seen = set()
+    while time.monotonic() < deadline:
+        time.sleep(POLL_S)
+        seen.update(t for t in observer.TOPICS if len(observer.take(t)))
+        if len(seen) == len(observer.TOPICS):
+            return
+    raise RuntimeError(f'realtime: no {" and no ".join(sorted(set(observer.TOPICS) - seen))} within {timeout_s:g} s')
+
+
+def realtime_run(plan):
+    def measure(observer, procs):
+        _wait_for_loop(observer)            # measure the running loop, not its start-up
+        time.sleep(plan.dds_warmup_s)
+        observer.drain()
+        states, commands = [], []
+        end = time.monotonic() + plan.realtime_s
+        while time.monotonic() < end:
+            time.sleep(POLL_S)
+            states.append(observer.take('joint_states'))
+            commands.append(observer.take('robot_joint_commands'))
+        procs.check_alive()
+        return realtime_metrics(np.concatenate(states), np.concatenate(commands))
+    return measure
+
+
+def bench_realtime(plan, env, log, logdir):
+    """B3 metrics per scenario and the worse of the two as the headline keys."""
+    per = {}
+    with Session(env, logdir) as session:
+        for scenario in ('polar_two_link', 'iiwa'):
+            per[scenario] = session.run(scenario, 'realtime', realtime_run(plan))
+            log(f'  {scenario}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[scenario].items()))
+        warn_killed(session.killed, log)
+    out = {'realtime_1khz_deadline_hit_ratio': min(m['hit_ratio'] for m in per.values()),
+           'realtime_latency_p50_ms': max(m['latency_p50_ms'] for m in per.values()),
+           'realtime_latency_p99_ms': max(m['latency_p99_ms'] for m in per.values()),
+           'realtime_rtf': min(m['rtf'] for m in per.values())}
+    for scenario, m in per.items():
+        s = SHORT[scenario]
+        out.update({f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
+                    f'realtime_latency_p50_ms_{s}': m['latency_p50_ms'],
+                    f'realtime_latency_p99_ms_{s}': m['latency_p99_ms'], f'realtime_rtf_{s}': m['rtf']})
+    return out
+
+
+def warn_killed(names, log):
+    if names:
+        log(f'  warning: {sorted(names)} ignored SIGTERM for {STOP_GRACE_S:g} s and were killed (SIGKILL)')

@@ -1,0 +1,305 @@
+"""The demo's own ROS side: the metrics collector, the reference publisher and the run control
+(pause/resume of the bridge, confirmations from the controller's log).
+
+Collector: raw subscriptions on a node that no executor spins. `poll()` takes every waiting
+message (serialized bytes plus the DDS source/receive timestamps) straight from the
+subscriptions, so the demo costs no executor wake-up per message; the readers' queues are deep
+(KEEP_LAST DEPTH) and acknowledgements are sent by DDS's own threads, so nothing is lost while
+the demo's Python thread is busy. Messages are deserialized once, after the run (and the
+newest of each topic once per second for the progress line).
+"""
+import time
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
+from rcl_interfaces.msg import Log
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool
+from trajectory_msgs.msg import JointTrajectory
+
+from robot_control.ros import conversions
+from robot_control.ros.qos import REFERENCE_QOS
+
+DEPTH = 10000
+COLLECT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
+ROSOUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+#: topic -> message type the collector takes (names absolute: the nodes run in the root namespace)
+COLLECT = {
+    '/joint_states': JointState,
+    '/robot_joint_commands': JointState,
+    '/controller/reference': JointState,
+    '/controller/error': JointState,
+    '/ft_sensor/wrench': WrenchStamped,
+    '/diagnostics': DiagnosticArray,
+}
+
+#: every topic of a run, with its type (the recorder subscribes to these before the nodes start)
+RUN_TOPICS = {
+    '/clock': 'rosgraph_msgs/msg/Clock',
+    '/joint_states': 'sensor_msgs/msg/JointState',
+    '/robot_joint_commands': 'sensor_msgs/msg/JointState',
+    '/ft_sensor/wrench': 'geometry_msgs/msg/WrenchStamped',
+    '/controller/reference': 'sensor_msgs/msg/JointState',
+    '/controller/error': 'sensor_msgs/msg/JointState',
+    '/controller/joint_trajectory': 'trajectory_msgs/msg/JointTrajectory',
+    '/controller/wrench_reference': 'geometry_msgs/msg/WrenchStamped',
+    '/diagnostics': 'diagnostic_msgs/msg/DiagnosticArray',
+    '/rosout': 'rcl_interfaces/msg/Log',
+}
+
+
+class Collector:
+    """Raw, polled subscriptions to the run's topics (see the module docstring)."""
+
+    def __init__(self, context, name='demo_collector'):
+        self.node = Node(name, context=context, enable_rosout=False, start_parameter_services=False)
+        self.subs = {}
+        self.raw = {topic: [] for topic in COLLECT}     # topic -> [(bytes, source_ns, received_ns)]
+        for topic, cls in COLLECT.items():
+            self.subs[topic] = self.node.create_subscription(cls, topic, _ignore, COLLECT_QOS, raw=True)
+
+    def poll(self):
+        """Take every waiting message; returns how many."""
+        n = 0
+        for topic, sub in self.subs.items():
+            cls = COLLECT[topic]
+            out = self.raw[topic]
+            with sub.handle:
+                while True:
+                    taken = sub.handle.take_message(cls, True)
+                    if taken is None:
+                        break
+                    data, info = taken
+                    out.append((data, info['source_timestamp'], info['received_timestamp']))
+                    n += 1
+        return n
+
+    def publishers(self, topic):
+        return self.subs[topic].get_publisher_count()
+
+    def count(self, topic):
+        return len(self.raw[topic])
+
+    def latest(self, topic):
+        """The newest message of `topic`, deserialized, or None."""
+        msgs = self.raw[topic]
+        return deserialize_message(msgs[-1][0], COLLECT[topic]) if msgs else None
+
+    def messages(self, topic):
+        """[(msg, source_ns, received_ns)] of `topic`, deserialized."""
+        cls = COLLECT[topic]
+        return [(deserialize_message(d, cls), s, r) for d, s, r in self.raw[topic]]
+
+    def last_stamp_ns(self, topic='/joint_states'):
+        msg = self.latest(topic)
+        return None if msg is None else conversions.stamp_to_ns(msg.header.stamp)
+
+    def destroy(self):
+        self.node.destroy_node()
+
+
+def _ignore(_msg):
+    """Callback of the polled subscriptions (never called: no executor spins their node)."""
+
+
+class RunControl:
+    """The spun node of the demo: reference publishers, the bridge's pause service, the controller's log."""
+
+    def __init__(self, context, executor, name='demo'):
+        self.node = Node(name, context=context, start_parameter_services=False)
+        self.node.get_logger().set_level(rclpy.logging.LoggingSeverity.WARN)  # the recorder's per-topic INFO
+        self.executor = executor
+        executor.add_node(self.node)
+        self.traj_pub = self.node.create_publisher(JointTrajectory, '/controller/joint_trajectory', REFERENCE_QOS)
+        self.wrench_pub = self.node.create_publisher(WrenchStamped, '/controller/wrench_reference', REFERENCE_QOS)
+        self.pause_client = self.node.create_client(SetBool, '/sim_bridge/pause')
+        self.log = []    # (logger name, level, text) from /rosout
+        self.node.create_subscription(Log, '/rosout', self._on_log, ROSOUT_QOS)
+
+    def _on_log(self, msg):
+        self.log.append((msg.name, int(msg.level), msg.msg))
+
+    def spin(self, timeout=0.0):
+        self.executor.spin_once(timeout_sec=timeout)
+
+    def spin_until(self, predicate, timeout, poll=None, what='condition'):
+        """Spin until predicate() or TimeoutError after `timeout` s of wall time; poll() each round."""
+        deadline = time.monotonic() + timeout
+        while True:
+            if poll is not None:
+                poll()
+            value = predicate()
+            if value:
+                return value
+            if time.monotonic() >= deadline:
+                raise TimeoutError(f'timed out after {timeout:g} s waiting for {what}')
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def subscribed(self, topic, node_name):
+        """True when node `node_name` subscribes to `topic` (graph)."""
+        return any(i.node_name == node_name for i in self.node.get_subscriptions_info_by_topic(topic))
+
+    def pause(self, on, timeout=15.0, poll=None, retry=2.0):
+        """Pause (True) or resume (False) the bridge; returns its message.
+
+        The request is re-sent every `retry` s without an answer: a response can be lost when the
+        bridge has not yet matched this client's response reader (ROS 2 service discovery race);
+        pausing is idempotent, so a repeated request is harmless.
+        """
+        self.spin_until(self.pause_client.service_is_ready, timeout, poll, 'the service /sim_bridge/pause')
+        deadline = time.monotonic() + timeout
+        while True:
+            future = self.pause_client.call_async(SetBool.Request(data=bool(on)))
+            try:
+                self.spin_until(future.done, min(retry, max(0.0, deadline - time.monotonic())), poll,
+                                '/sim_bridge/pause to answer')
+                break
+            except TimeoutError:
+                self.pause_client.remove_pending_request(future)
+                if time.monotonic() >= deadline:
+                    raise TimeoutError(f'timed out after {timeout:g} s waiting for /sim_bridge/pause({on}) '
+                                       'to answer') from None
+        result = future.result()
+        if result is None or not result.success:
+            raise RuntimeError(f'/sim_bridge/pause({on}) failed: {None if result is None else result.message}')
+        return result.message
+
+    def controller_said(self, text, since=0):
+        """Index of the first controller log line after `since` containing `text`, or None."""
+        for i in range(since, len(self.log)):
+            name, _, msg = self.log[i]
+            if name == 'controller' and text in msg:
+                return i
+        return None
+
+    def controller_rejections(self, since=0):
+        return [m for n, _, m in self.log[since:] if n == 'controller' and m.startswith('rejected')]
+
+    def send_trajectory(self, joints, spec, stamp_ns):
+        msg = conversions.joint_trajectory(joints, spec.times, spec.positions, spec.velocities,
+                                           spec.accelerations, stamp_ns=stamp_ns)
+        self.traj_pub.publish(msg)
+
+    def send_force(self, axes, values, stamp_ns=0):
+        """Publish a force reference; stamped ahead, the controller applies it from that time."""
+        self.wrench_pub.publish(conversions.wrench_along(axes, values, stamp_ns=stamp_ns))
+
+    def destroy(self):
+        self.executor.remove_node(self.node)
+        self.node.destroy_node()
+
+
+def first_by_stamp(messages):
+    """{stamp_ns: (msg, source_ns, received_ns)} keeping the first message of each stamp."""
+    out = {}
+    for m, s, r in messages:
+        out.setdefault(conversions.stamp_to_ns(m.header.stamp), (m, s, r))
+    return out
+
+
+def last_before(messages, limit_by_stamp):
+    """{stamp_ns: source_ns} of the last publication of each stamp before limit_by_stamp[stamp]."""
+    out = {}
+    for m, s, _ in messages:
+        k = conversions.stamp_to_ns(m.header.stamp)
+        lim = limit_by_stamp.get(k)
+        if lim is not None and s <= lim:
+            out[k] = s
+    return out
+
+
+def controller_diagnostics(collector):
+    """(effort_limit dict {joint: limit}, saturated_ticks) from the controller's newest /diagnostics."""
+    limits, sat = {}, None
+    for data, _, _ in reversed(collector.raw['/diagnostics']):
+        msg = deserialize_message(data, DiagnosticArray)
+        for st in msg.status:
+            if st.name.startswith('controller: effort saturation'):
+                values = {kv.key: kv.value for kv in st.values}
+                limits = {k.split('.', 1)[1]: float(v) for k, v in values.items() if k.startswith('effort_limit.')}
+                sat = int(values.get('saturated_ticks', 0))
+                return limits, sat
+    return limits, sat
+
+
+def align(collector, joints, joint_units, force_axes, force_axis_index, law, origin_ns, end_ns, effort_limit=None,
+          lockstep=True):
+    """RunData of the ticks in [origin_ns, end_ns] the controller answered (see demo_metrics).
+
+    `lost`: in lockstep every tick is answered, so a tick missing here was lost on the way to this
+    process. In realtime the bridge steps on without waiting, and the controller answers the newest
+    state only: `expected_ticks` counts the simulated ticks and nothing is reported lost.
+    """
+    from robot_control.tools.demo_metrics import RunData
+    cmds = first_by_stamp(collector.messages('/robot_joint_commands'))
+    states_all = collector.messages('/joint_states')
+    states = first_by_stamp(states_all)
+    refs = first_by_stamp(collector.messages('/controller/reference'))
+    errs = first_by_stamp(collector.messages('/controller/error'))
+    wrenches = first_by_stamp(collector.messages('/ft_sensor/wrench'))
+    stamps = sorted(k for k in cmds if origin_ns <= k <= end_ns and k in states and k in refs and k in errs)
+    seen = sorted(set(cmds) | set(states))
+    period = int(np.median(np.diff(seen))) if len(seen) > 1 else 0
+    expected = range(origin_ns, end_ns + 1, period) if period > 0 else ()
+    lost = {topic: [k for k in expected if k not in d] for topic, d in
+            (('/robot_joint_commands', cmds), ('/joint_states', states), ('/controller/reference', refs),
+             ('/controller/error', errs))} if lockstep else {}
+    if not stamps:
+        raise RuntimeError('no control tick was recorded (no command with a matching state/reference/error)')
+    state_src = last_before(states_all, {k: cmds[k][1] for k in stamps})
+    n = len(joints)
+
+    def by_name(msg, names, field):
+        values = getattr(msg, field)
+        index = {s: i for i, s in enumerate(msg.name)}
+        return [values[index[s]] for s in names]
+
+    ref_names = tuple(refs[stamps[0]][0].name)
+    cols = {k: [] for k in ('q', 'qd', 'tau_a', 'tau_c', 'rp', 'rv', 'ra', 'ep', 'ev', 'f', 'sw', 'cw')}
+    for k in stamps:
+        st, cm, rf, er = states[k][0], cmds[k][0], refs[k][0], errs[k][0]
+        cols['q'].append(by_name(st, joints, 'position'))
+        cols['qd'].append(by_name(st, joints, 'velocity'))
+        cols['tau_a'].append(by_name(st, joints, 'effort') if len(st.effort) == len(st.name) else [np.nan] * n)
+        cols['tau_c'].append(by_name(cm, joints, 'effort'))
+        cols['rp'].append(by_name(rf, ref_names, 'position'))
+        cols['rv'].append(by_name(rf, ref_names, 'velocity'))
+        cols['ra'].append(by_name(rf, ref_names, 'effort'))
+        cols['ep'].append(by_name(er, ref_names, 'position'))
+        cols['ev'].append(by_name(er, ref_names, 'velocity'))
+        w = wrenches.get(k)
+        if w is None:
+            cols['f'].append([np.nan] * 3)
+        else:
+            f = w[0].wrench.force
+            cols['f'].append([f.x, f.y, f.z])
+        cols['sw'].append(state_src.get(k, states[k][1]))
+        cols['cw'].append(cmds[k][1])
+    t = (np.array(stamps, dtype=np.int64) - origin_ns) * 1e-9
+    limit = None
+    if effort_limit:
+        limit = [effort_limit.get(j, np.inf) for j in joints]
+    data = RunData(t=t, joints=joints, joint_units=joint_units, q=cols['q'], qd=cols['qd'],
+                   tau_applied=cols['tau_a'], tau_cmd=cols['tau_c'], ref_names=ref_names, ref_pos=cols['rp'],
+                   ref_vel=cols['rv'], ref_acc=cols['ra'], err_pos=cols['ep'], err_vel=cols['ev'],
+                   force_xyz=cols['f'], force_axes=force_axes, force_axis_index=force_axis_index, law=law,
+                   effort_limit=limit, state_wall_ns=cols['sw'], cmd_wall_ns=cols['cw'])
+    data.lost = {topic: [(k - origin_ns) / 1e9 for k in v] for topic, v in lost.items() if v}
+    data.expected_ticks = len(expected)
+    return data
+
+
+def context_with_domain(domain_id):
+    """A fresh rclpy Context on `domain_id` (the caller shuts it down)."""
+    from rclpy.signals import SignalHandlerOptions
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=int(domain_id), signal_handler_options=SignalHandlerOptions.NO)
+    return ctx

@@ -1,0 +1,339 @@
+"""The lecture's experiments end to end (issue 5): sim_bridge_node and controller_node as separate
+processes over DDS (loopback, a private domain per run), lockstep, references and metrics by
+robot_control.tools.demo. Each run is shared by the tests that read it (module-scoped `runs`); all runs
+are submitted when the module starts and execute two at a time.
+
+Figures checked (the issue's):
+1. polar example, step from rest: the joint error follows e0 (1 + 6 t) exp(-6 t) within 2 % of e0.
+2. planar_two_link, fast path: computed torque RMS error >= 10x lower than independent-joint PD of
+   the same design.
+3. constant disturbance d: PD steady-state error = d / (m kp) within 5 %; PID below 1 % of that.
+4. model error (robot 20 % heavier than the controller's model): PD leaves an error, PID removes it.
+5. force_1dof: the force step follows the designed dynamics; steady-state force error < 1 %.
+6. hybrid_cartesian_xy: 10 N on the wall, force RMS error < 2 % after settling, y RMS error < 1 mm.
+7. iiwa: joint-space point-to-point ends within 1e-3 rad; hybrid on the table: 10 N with force
+   error < 5 % while drawing a 10 cm line with path error < 2 mm.
+8. mass_spring_cubic tracks a sine with the partitioned law.
+Repeated runs give identical numbers; the recorded bag of one run is checked with rosbags.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from e2e_helpers import Runs, common_ticks, physics_summary, restrict
+from robot_control.tools import demo_experiments as exps
+from robot_control import scenarios
+from robot_control.tools.demo_metrics import critically_damped
+
+OMEGA = 6.0          # rad/s: every config designs zeta = 1, omega_n = 0.5 * 12 rad/s
+
+#: key -> (experiment, keyword arguments of the run)
+RUNS = {
+    'polar': ('polar_step', dict(duration=1.7, record=True)),
+    'polar_again': ('polar_step', dict(duration=1.7)),
+    'planar_ct': ('planar_fast_path', dict(duration=2.5)),
+    'planar_ij': ('planar_independent_joint', dict(duration=2.5)),
+    'dist_pd': ('disturbance_pd', dict(duration=2.0)),
+    'dist_pid': ('disturbance_pid', dict(duration=2.0)),
+    'model_pd': ('model_error_pd', dict(duration=2.5)),
+    'model_pid': ('model_error_pid', dict(duration=2.5)),
+    'force': ('force_steps', dict(duration=2.3)),          # the 0 -> 10 N step, and 10 -> 5 N at 2.0 s
+    'force_again': ('force_steps', dict(duration=2.3)),
+    'hybrid_xy': ('hybrid_xy_wall', dict(duration=4.0)),
+    'iiwa_ptp': ('iiwa_ptp', dict(duration=2.7)),
+    'iiwa_line': ('iiwa_hybrid_line', dict(duration=3.5)),
+    'sine': ('mass_spring_sine', dict(duration=2.5)),
+}
+
+
+@pytest.fixture(scope='module')
+def runs(tmp_path_factory):
+    r = Runs(tmp_path_factory.mktemp('experiments'))
+    try:
+        for key, (name, kwargs) in RUNS.items():
+            r.submit(key, name, **kwargs)
+        yield r
+    finally:
+        r.close()
+
+
+#: smallest share of the control ticks the collector must see. An observer starved of CPU misses
+#: samples; the writers keep 10000 (qos.PUBLISHER_DEPTH) and DDS re-sends them after the next
+#: heartbeat, which the demo waits for (demo.REPAIR_TIMEOUT): measured, 18 of 18 runs complete with
+#: three runs in one process and two busy loops on two cores. 2 % margin for the unforeseen.
+MIN_TICKS = 0.98
+
+
+def _complete(result):
+    """True when every tick of the run was collected; fails when too many were lost."""
+    s = result.summary
+    assert s['samples'] >= MIN_TICKS * s['expected_ticks'], f'too many ticks lost: {s["lost_messages"]}'
+    # the demo starts the run once every stream of the tick has delivered a sample: the first tick is never lost
+    first = {topic: lost['ranges_s'][0] for topic, lost in s['lost_messages'].items()
+             if lost['ranges_s'] and lost['ranges_s'][0][0] == 0.0}
+    assert not first, f'the first tick did not reach the collector: {first}'
+    if s['samples'] < s['expected_ticks']:
+        print(f'warning: {s["experiment"]}: {s["expected_ticks"] - s["samples"]} of {s["expected_ticks"]} ticks '
+              'lost on the way to the collector')
+    return s['samples'] == s['expected_ticks']
+
+
+# -- 1. the lecture's worked example -----------------------------------------------------------------
+def test_polar_step_follows_the_critically_damped_solution(runs):
+    result = runs.get('polar')
+    d = result.data
+    _complete(result)
+    spec = exps.get('polar_step').trajectory
+    goal = np.array(spec.positions[0])
+    q0 = np.array(scenarios.get('polar_two_link').q0)
+    t_step = spec.t_start + spec.times[0]             # the goal is reached one control period after 0.5 s
+    k0 = int(np.searchsorted(d.t, t_step - 1e-9))
+    assert np.all(np.abs(d.ref_pos[k0:] - goal) < 1e-12) and np.all(np.abs(d.ref_pos[:k0] - q0) < 1e-12)
+    e0 = goal - q0                                    # from rest at q0
+    assert abs(d.t[k0] - t_step) > 1e-9 or np.allclose(d.err_pos[k0], e0, atol=1e-12)
+    tau = d.t[k0:] - t_step
+    predicted = critically_damped(tau[:, None], e0[None, :], OMEGA)
+    deviation = np.max(np.abs(d.err_pos[k0:] - predicted), axis=0) / np.abs(e0)
+    print(f'polar step: max |e - e_analytic| / e0 = {deviation.tolist()} over {tau[-1]:.3f} s')
+    assert np.all(deviation < 0.02)
+    assert np.all(np.abs(d.err_pos[-1]) < 0.02 * np.abs(e0))   # settled: 2 % settling time is 0.97 s
+
+
+# -- 2. computed torque vs independent joint ----------------------------------------------------------
+def test_planar_computed_torque_beats_independent_joint_pd_by_10x(runs):
+    ct, ij = runs.get('planar_ct'), runs.get('planar_ij')
+    _complete(ct), _complete(ij)
+    rms_ct = np.array(list(ct.summary['rms_error'].values()))
+    rms_ij = np.array(list(ij.summary['rms_error'].values()))
+    ratio = rms_ij / rms_ct
+    print(f'planar fast path: RMS error CT {rms_ct.tolist()} rad, independent joint {rms_ij.tolist()} rad, '
+          f'ratio {ratio.tolist()}')
+    assert np.all(ratio >= 10.0)
+    assert np.linalg.norm(rms_ij) / np.linalg.norm(rms_ct) >= 10.0
+    assert ct.summary['saturated_ticks'] == 0 and ij.summary['saturated_ticks'] == 0
+
+
+# -- 3. disturbance rejection -------------------------------------------------------------------------
+def _pd_steady_state_prediction():
+    sc = scenarios.get('mass_spring_cubic')
+    kp = OMEGA ** 2
+    return exps.D_DISTURBANCE / (sc.params['m'] * kp)
+
+
+def test_pd_steady_state_error_is_d_over_m_kp(runs):
+    result = runs.get('dist_pd')
+    _complete(result)
+    e_ss = result.summary['steady_state_error']['x']
+    predicted = _pd_steady_state_prediction()
+    print(f'disturbance d = {exps.D_DISTURBANCE} N, PD: e_ss = {e_ss:.6g} m, d/(m kp) = {predicted:.6g} m, '
+          f'ratio {e_ss / predicted:.5f}')
+    assert abs(e_ss - predicted) <= 0.05 * predicted
+
+
+def test_pid_removes_the_disturbance_error(runs):
+    result = runs.get('dist_pid')
+    _complete(result)
+    e_ss = result.summary['steady_state_error']['x']
+    predicted = _pd_steady_state_prediction()
+    print(f'disturbance d = {exps.D_DISTURBANCE} N, PID: e_ss = {e_ss:.3g} m = {abs(e_ss) / predicted:.2e} d/(m kp)')
+    assert abs(e_ss) < 0.01 * predicted
+
+
+# -- 4. model error -----------------------------------------------------------------------------------
+def _model_error_prediction():
+    """PD computed torque with the model's m_hat, robot m at rest: m_hat r^2 kp e1 = (m - m_hat) g r cos(th1),
+    m_hat kp e2 = (m - m_hat) g sin(th1), th1 = th1_d - e1, r = r_d - e2 (fixed point)."""
+    sc = scenarios.get('polar_two_link')
+    m_hat, g = sc.params['m'], sc.params['gravity']
+    dm = m_hat * (exps.MODEL_ERROR - 1.0)
+    kp = OMEGA ** 2
+    th_d, r_d = exps.get('model_error_pd').bridge['initial_positions']
+    e1 = e2 = 0.0
+    for _ in range(200):
+        th, r = th_d - e1, r_d - e2
+        e1, e2 = dm * g * math.cos(th) / (m_hat * r * kp), dm * g * math.sin(th) / (m_hat * kp)
+    return np.array([e1, e2])
+
+
+def test_model_error_pd_leaves_the_predicted_error(runs):
+    result = runs.get('model_pd')
+    _complete(result)
+    e_ss = np.array(list(result.summary['steady_state_error'].values()))
+    predicted = _model_error_prediction()
+    print(f'model error 20 %, PD: e_ss = {e_ss.tolist()} (rad, m), predicted {predicted.tolist()}')
+    assert np.all(np.abs(e_ss - predicted) <= 0.05 * np.abs(predicted))
+
+
+def test_model_error_pid_removes_it(runs):
+    pd, pid = runs.get('model_pd'), runs.get('model_pid')
+    _complete(pid)
+    e_pd = np.abs(list(pd.summary['steady_state_error'].values()))
+    e_pid = np.abs(list(pid.summary['steady_state_error'].values()))
+    print(f'model error 20 %: |e_ss| PD {e_pd.tolist()}, PID {e_pid.tolist()} (rad, m)')
+    assert np.all(e_pid < 0.01 * e_pd)
+
+
+# -- 5. force control ---------------------------------------------------------------------------------
+def test_force_step_follows_the_designed_dynamics(runs):
+    """The force error of a 0 -> f_d step from contact at rest follows e_f'' + 12 e_f' + 36 e_f = 0.
+
+    config/force_1dof.yaml sets force_lead_time = the 1 ms control period: the law uses f + fdot dt, the
+    force at the end of the command's hold, which PyBullet's stiff contact applies (with the lecture's
+    beta = f on the sampled force the response lags the design by 3.5 % of f_d and settles 14 % late).
+    Checked: the deviation from the analytic response (< 1 % of f_d; measured 0.16 %), the 2 % settling
+    time against the design's 0.972 s (within 3 %; measured 0.978 s), no overshoot, and the steady-state
+    error (< 1 %, the issue's figure).
+    """
+    result = runs.get('force')
+    d, s = result.data, result.summary
+    _complete(result)
+    exp = exps.get('force_steps')
+    f_d = exp.force[0]
+    t_next, (f_next,) = exp.force_events[0]
+    first = d.t < t_next - 1e-9                              # the first step, up to the next one at 2.0 s
+    f = d.force_measured()[first, 0]
+    ef = d.force_reference()[first, 0] - f
+    ok = np.isfinite(ef)
+    predicted = critically_damped(d.t[first], f_d, OMEGA)
+    deviation = np.max(np.abs(ef[ok] - predicted[ok])) / f_d
+    designed_settling = 5.8340 / OMEGA        # (1 + x) exp(-x) = 0.02 at x = 5.834
+    e_ss = float(np.nanmean(ef[d.t[first] >= t_next - 0.5]))
+    print(f'force step 0 -> {f_d} N: max |e_f - e_f analytic| = {deviation:.2%} of f_d; 2 % settling '
+          f'{s["force_settling_time_s"]:.3f} s (designed {designed_settling:.3f} s); max f {np.nanmax(f):.4f} N; '
+          f'steady-state force error {e_ss:.3g} N = {abs(e_ss) / f_d:.2e} f_d')
+    assert np.all(d.force_reference()[first, 0] == f_d)      # a step at the first tick (force_ramp_time 0)
+    # the next step, sent at the start stamped 2.0 s, is applied at exactly that tick
+    assert np.all(d.force_reference()[~first, 0] == f_next) and np.isclose(d.t[~first][0], t_next)
+    assert deviation < 0.01
+    assert abs(s['force_settling_time_s'] - designed_settling) < 0.03 * designed_settling
+    assert np.nanmax(f) < f_d * 1.01                          # critically damped: no overshoot
+    assert abs(e_ss) < 0.01 * f_d
+
+
+# -- 6. hybrid position/force, the lecture's example ------------------------------------------------------
+def test_hybrid_xy_presses_10N_while_y_tracks_the_sine(runs):
+    result = runs.get('hybrid_xy')
+    s = result.summary
+    _complete(result)
+    f_d = exps.get('hybrid_xy_wall').force[0]
+    f_rms, y_rms = s['force_rms_error']['x'], s['rms_error']['y']
+    print(f'hybrid xy: force RMS error after {exps.get("hybrid_xy_wall").force_window} s = {f_rms:.3g} N '
+          f'({f_rms / f_d:.2%} of f_d), y RMS error {y_rms:.3g} m')
+    assert f_rms < 0.02 * f_d
+    assert y_rms < 1e-3
+
+
+# -- 7. the iiwa ------------------------------------------------------------------------------------------
+def test_iiwa_point_to_point_ends_within_1e_3_rad(runs):
+    result = runs.get('iiwa_ptp')
+    d = result.data
+    _complete(result)
+    goal = np.array(exps.get('iiwa_ptp').trajectory.positions[0])
+    final = np.abs(d.q[-1] - goal)
+    print(f'iiwa point to point: final |q - q_goal| = {final.max():.3g} rad (max over joints), '
+          f'RMS tracking error {max(result.summary["rms_error"].values()):.3g} rad')
+    assert np.all(d.ref_pos[-1] == goal)
+    assert np.all(final < 1e-3)
+
+
+def test_iiwa_hybrid_presses_10N_while_drawing_a_line(runs):
+    result = runs.get('iiwa_line')
+    d, s = result.data, result.summary
+    _complete(result)
+    exp = exps.get('iiwa_hybrid_line')
+    f_d = abs(exp.force[0])
+    win = d.window(exp.force_window)
+    ef = (d.force_reference() - d.force_measured())[win, 0]
+    path = np.linalg.norm(d.motion_error(), axis=1)
+    print(f'iiwa hybrid: force error after {exp.force_window} s: max {np.nanmax(np.abs(ef)):.3g} N, RMS '
+          f'{s["force_rms_error"]["z"]:.3g} N (f_d {f_d} N); path error max {path.max():.3g} m')
+    assert np.nanmax(np.abs(ef)) < 0.05 * f_d
+    assert path.max() < 2e-3
+
+
+# -- 8. the partitioned law on the nonlinear spring -------------------------------------------------------
+def test_mass_spring_cubic_tracks_a_sine(runs):
+    result = runs.get('sine')
+    d, s = result.data, result.summary
+    _complete(result)
+    amplitude = np.ptp(d.ref_pos[:, 0])
+    print(f'mass_spring_cubic sine ({amplitude:.3g} m peak to peak): RMS error {s["rms_error"]["x"]:.3g} m, '
+          f'max {s["max_error"]["x"]:.3g} m')
+    assert amplitude > 0.3
+    assert s['rms_error']['x'] < 1e-3 * amplitude * 2.5    # < 1 mm for the 0.4 m sine
+    assert s['max_error']['x'] < 2e-3
+
+
+# -- repeatability ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize('first,second,name,duration', [
+    ('polar', 'polar_again', 'polar_step', 1.7),
+    ('force', 'force_again', 'force_steps', 2.3),     # own-tick wrench; a stamped step at 2.0 s
+])
+def test_lockstep_runs_repeat_exactly(runs, first, second, name, duration):
+    a, b = runs.get(first), runs.get(second)
+    ia, ib = common_ticks(a.data, b.data)
+    assert len(ia) >= MIN_TICKS * a.summary['expected_ticks']
+    for field in ('q', 'qd', 'tau_cmd', 'err_pos', 'force_xyz'):
+        x, y = getattr(a.data, field)[ia], getattr(b.data, field)[ib]
+        same = (x == y) | (np.isnan(x) & np.isnan(y))
+        assert same.all(), f'{name}: {field} differs between two lockstep runs at t = {a.data.t[ia][~same.all(axis=1)][:5]}'
+    sa = physics_summary(restrict(a.data, ia), name, duration)
+    sb = physics_summary(restrict(b.data, ib), name, duration)
+    assert sa == sb
+    if _complete(a) and _complete(b):
+        assert {k: a.summary[k] for k in sa} == {k: b.summary[k] for k in sb}
+
+
+# -- the recording ---------------------------------------------------------------------------------------
+def test_bag_of_a_run_reads_back_with_rosbags(runs):
+    """The run's rosbag2 directory (mcap + metadata.yaml) read with rosbags: every topic of the run with its
+    type; per-tick topics carry one message per control tick of the run (the bag also holds the ticks after
+    the run's end, until the bridge was paused, and re-published states; a share of at most 1 - MIN_TICKS
+    may be lost on the way to the recorder under load, see MIN_TICKS)."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+    result = runs.get('polar')
+    ticks = result.summary['expected_ticks']
+    end_ns = int(round(result.summary['duration_s'] * 1e9))
+    bag = result.bag
+    assert (bag / 'metadata.yaml').is_file() and list(bag.glob('*.mcap'))
+    expected_types = {
+        '/joint_states': 'sensor_msgs/msg/JointState', '/robot_joint_commands': 'sensor_msgs/msg/JointState',
+        '/ft_sensor/wrench': 'geometry_msgs/msg/WrenchStamped', '/clock': 'rosgraph_msgs/msg/Clock',
+        '/controller/reference': 'sensor_msgs/msg/JointState', '/controller/error': 'sensor_msgs/msg/JointState',
+        '/controller/joint_trajectory': 'trajectory_msgs/msg/JointTrajectory',
+        '/diagnostics': 'diagnostic_msgs/msg/DiagnosticArray', '/rosout': 'rcl_interfaces/msg/Log',
+    }
+    per_tick = ('/joint_states', '/robot_joint_commands', '/ft_sensor/wrench', '/controller/reference',
+                '/controller/error')
+    store = get_typestore(Stores.ROS2_JAZZY)
+    stamps = {t: [] for t in per_tick}
+    with Reader(bag) as reader:
+        conns = {c.topic: c for c in reader.connections}
+        for topic, msgtype in expected_types.items():
+            assert topic in conns, f'{topic} not recorded (bag has {sorted(conns)})'
+            assert conns[topic].msgtype == msgtype
+        counts = {t: c.msgcount for t, c in conns.items()}
+        wanted = [conns[t] for t in (*per_tick, '/controller/joint_trajectory')]
+        for conn, _, raw in reader.messages(connections=wanted):
+            msg = store.deserialize_cdr(raw, conn.msgtype)
+            if conn.topic == '/controller/joint_trajectory':
+                assert list(msg.joint_names) == list(scenarios.get('polar_two_link').joints)
+                assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == 500_000_000
+                continue
+            stamps[conn.topic].append(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec)
+    in_run = {t: {k for k in v if k <= end_ns} for t, v in stamps.items()}
+    print(f'bag of the polar run ({ticks} ticks): {dict(sorted(counts.items()))}; ticks of the run per topic '
+          f'{ {t: len(v) for t, v in in_run.items()} }')
+    assert counts['/controller/joint_trajectory'] == 1
+    assert counts['/diagnostics'] >= 1 and counts['/rosout'] >= 1
+    # /clock: the bridge publishes it every clock_period (its parameter), not every tick
+    assert 1 <= counts['/clock'] <= counts['/joint_states']
+    cmd = np.array(stamps['/robot_joint_commands'])
+    assert np.all(np.diff(cmd) >= 0), 'commands in stamp order (a re-published state is answered again)'
+    assert cmd[0] == 0 and cmd[-1] >= end_ns
+    for topic in per_tick:
+        assert len(in_run[topic]) >= MIN_TICKS * ticks, f'{topic}: {len(in_run[topic])} of {ticks} ticks'
+        assert in_run[topic] <= set(range(0, end_ns + 1, 1_000_000)), f'{topic}: stamps off the 1 ms tick grid'
+    assert len(in_run['/robot_joint_commands'] & in_run['/joint_states']) >= MIN_TICKS * ticks

@@ -1,0 +1,136 @@
+"""`colcon build` of the repo gives a correct ament_python install (no ROS install needed).
+
+colcon-ros (from PyPI, in .venv) recognizes package.xml's <build_type>ament_python</build_type>
+and builds with plain setuptools (`setup.py egg_info build install --single-version-externally-managed`
+run by .venv's python): no ament_package or sourced /opt/ros is needed. Everything colcon writes
+(build, install, log) goes to pytest's tmp_path; the repo must not gain build/ install/ log/.
+"""
+import configparser
+import glob
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.realpath(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+VENV_BIN = os.path.dirname(os.path.abspath(sys.executable))
+PKG = 'robot_control'
+NODES = {'controller_node': 'robot_control.ros.controller_node:main',
+         'sim_bridge_node': 'sim_bridge.bridge_node:main'}
+ARTIFACTS = ('build', 'install', 'log')
+
+
+def repo_artifacts():
+    """Top-level build outputs present in the repo (colcon's and setuptools')."""
+    return {a for a in ARTIFACTS if os.path.exists(os.path.join(ROOT, a))} | \
+        {os.path.basename(p) for p in glob.glob(os.path.join(ROOT, '*.egg-info'))}
+
+
+def colcon_env(tmp):
+    env = {k: v for k, v in os.environ.items()
+           if k not in ('AMENT_PREFIX_PATH', 'COLCON_PREFIX_PATH', 'CMAKE_PREFIX_PATH', 'PYTHONPATH')}
+    env.update(PATH=VENV_BIN + os.pathsep + env.get('PATH', ''),
+               COLCON_HOME=str(tmp / 'colcon_home'),     # no user defaults (e.g. symlink-install)
+               COLCON_LOG_PATH=str(tmp / 'log'),
+               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', ROS_DOMAIN_ID='21',
+               PYTHONDONTWRITEBYTECODE='1')
+    return env
+
+
+def colcon_build(base, tmp):
+    """Run colcon build on `base` with every output under `tmp`; returns the package's install prefix."""
+    colcon = shutil.which('colcon', path=VENV_BIN)
+    assert colcon, f'colcon not found in {VENV_BIN} (pip install colcon-common-extensions)'
+    cmd = [colcon, '--log-base', str(tmp / 'log'), 'build', '--base-paths', str(base),
+           '--build-base', str(tmp / 'build'), '--install-base', str(tmp / 'install'),
+           '--event-handlers', 'console_direct-']
+    proc = subprocess.run(cmd, cwd=tmp, env=colcon_env(tmp), capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, f'colcon build failed:\n{proc.stdout}\n{proc.stderr}'
+    assert 'Summary: 1 package finished' in proc.stdout, proc.stdout
+    return tmp / 'install' / PKG
+
+
+def entry_points(prefix):
+    """console_scripts of the installed distribution, from its egg-info."""
+    found = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages' / f'{PKG}-*.egg-info' / 'entry_points.txt'))
+    assert len(found) == 1, found
+    parser = configparser.ConfigParser()
+    parser.read(found[0])
+    return dict(parser['console_scripts'])
+
+
+def names(pattern):
+    return sorted(os.path.basename(p) for p in glob.glob(pattern))
+
+
+@pytest.fixture(scope='module')
+def installed(tmp_path_factory):
+    """One colcon build of the repo itself (shared by the layout checks)."""
+    tmp = tmp_path_factory.mktemp('colcon')
+    before = repo_artifacts()
+    prefix = colcon_build(ROOT, tmp)
+    return prefix, before
+
+
+def test_build_writes_nothing_into_the_repo(installed):
+    _, before = installed
+    after = repo_artifacts()
+    assert after <= before, f'colcon wrote {sorted(after - before)} into {ROOT}'
+
+
+def test_nodes_are_installed_where_ros2_run_looks(installed):
+    prefix, _ = installed
+    for node, target in NODES.items():
+        path = prefix / 'lib' / PKG / node
+        assert path.is_file() and os.access(path, os.X_OK), path
+        with open(path, encoding='utf-8') as f:
+            assert f.readline().startswith('#!'), f'{path} has no shebang'
+    assert {k: v for k, v in entry_points(prefix).items() if k in NODES} == NODES
+
+
+def test_package_is_registered_in_the_ament_index(installed):
+    prefix, _ = installed
+    assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PKG).is_file()
+    with open(prefix / 'share' / PKG / 'package.xml', encoding='utf-8') as got, \
+            open(os.path.join(ROOT, 'package.xml'), encoding='utf-8') as want:
+        assert got.read() == want.read()
+
+
+def test_config_and_urdf_files_are_installed(installed):
+    prefix, _ = installed
+    share = prefix / 'share' / PKG
+    assert names(str(share / 'config' / '*.yaml')) == names(os.path.join(ROOT, 'config', '*.yaml'))
+    urdfs = names(os.path.join(ROOT, PKG, 'urdf', '*.urdf'))
+    assert urdfs, 'no shipped URDFs'
+    assert names(str(share / 'urdf' / '*.urdf')) == urdfs
+    site = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages' / PKG / 'urdf'))
+    assert len(site) == 1 and names(os.path.join(site[0], '*.urdf')) == urdfs   # package_data
+
+
+def test_installed_package_resolves_its_own_urdfs(installed, tmp_path):
+    """The installed library (not the source tree) finds its shipped URDFs and builds a model."""
+    prefix, _ = installed
+    site = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages'))[0]
+    code = ('import robot_control.models as m; '
+            "print(m.resolve_urdf('polar_two_link')); print(m.for_scenario('polar_two_link').n)")
+    env = dict(os.environ, PYTHONPATH=site, PYTHONDONTWRITEBYTECODE='1')
+    proc = subprocess.run([sys.executable, '-P', '-c', code], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    path, n = proc.stdout.split()
+    assert path.startswith(site) and n == '2', proc.stdout
+
+
+def test_every_config_yaml_is_installed(tmp_path):
+    """setup.py's config glob installs each YAML: build a copy of the package with one more YAML."""
+    src = tmp_path / 'src' / PKG
+    ignore = shutil.ignore_patterns('.*', '__pycache__', *ARTIFACTS, 'out', '*.egg-info', 'test')
+    shutil.copytree(ROOT, src, ignore=ignore)
+    os.makedirs(src / 'config', exist_ok=True)
+    (src / 'config' / 'zz_probe.yaml').write_text('controller:\n  ros__parameters:\n    rate: 1000.0\n')
+    prefix = colcon_build(tmp_path / 'src', tmp_path)
+    installed_yaml = names(str(prefix / 'share' / PKG / 'config' / '*.yaml'))
+    assert installed_yaml == names(str(src / 'config' / '*.yaml'))
+    assert 'zz_probe.yaml' in installed_yaml

@@ -1,0 +1,107 @@
+"""config/*.yaml: one per scenario, each loads into the controller node and validates (issue 4, test 3)."""
+import glob
+import os
+
+import numpy as np
+import pytest
+import yaml
+from rclpy.parameter import Parameter
+
+from robot_control import scenarios
+from robot_control.ros.controller_node import ControllerNode
+from robot_control.ros.params import ParameterError
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+CONFIG = os.path.join(ROOT, 'config')
+FILES = sorted(glob.glob(os.path.join(CONFIG, '*.yaml')))
+NODE_SECTIONS = {'controller', 'sim_bridge'}    # one file configures both nodes of a scenario
+
+
+def _flatten(d, prefix=''):
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f'{prefix}{k}.'))
+        else:
+            out[f'{prefix}{k}'] = v
+    return out
+
+
+def _controller_params(path):
+    with open(path) as f:
+        doc = yaml.safe_load(f)
+    return _flatten(doc['controller']['ros__parameters'])
+
+
+def _node_from_file(context, path):
+    return ControllerNode(context=context, cli_args=['--ros-args', '--params-file', path])
+
+
+def test_every_scenario_has_a_config_file():
+    names = {os.path.splitext(os.path.basename(p))[0] for p in FILES}
+    assert names == set(scenarios.SCENARIOS)
+
+
+@pytest.mark.parametrize('path', FILES, ids=os.path.basename)
+def test_file_layout_is_ros_parameters_per_node(path):
+    with open(path) as f:
+        doc = yaml.safe_load(f)
+    assert set(doc) <= NODE_SECTIONS and 'controller' in doc
+    for section in doc.values():
+        assert set(section) == {'ros__parameters'}
+    params = _controller_params(path)
+    assert params['scenario'] == os.path.splitext(os.path.basename(path))[0]
+
+
+@pytest.mark.parametrize('path', FILES, ids=os.path.basename)
+def test_file_loads_into_the_node_and_every_key_is_a_declared_parameter(ros_context, path):
+    node = _node_from_file(ros_context, path)
+    try:
+        for name, value in _controller_params(path).items():
+            assert node.has_parameter(name), f'{name} in {os.path.basename(path)} is not a controller parameter'
+            param = node.get_parameter(name)
+            if param.type_ in (Parameter.Type.DOUBLE, Parameter.Type.DOUBLE_ARRAY):
+                assert all(isinstance(v, float) for v in np.atleast_1d(value)), f'{name}: write doubles with .0'
+            got = list(param.value) if isinstance(value, list) else param.value
+            assert got == value, name
+        cfg = node.core.config
+        assert cfg.law == node.get_parameter('law').value
+        assert list(cfg.joints) == list(node.get_parameter('joints').value)
+        assert np.all(cfg.effort_limit > 0.0)
+    finally:
+        node.destroy_node()
+
+
+def test_polar_file_is_the_lecture_example(ros_context):
+    path = os.path.join(CONFIG, 'polar_two_link.yaml')
+    params = _controller_params(path)
+    assert (params['model_params.m'], params['omega_res'], params['zeta']) == (2.0, 12.0, 1.0)
+    node = _node_from_file(ros_context, path)
+    try:
+        cfg = node.core.config
+        assert cfg.law == 'computed_torque' and not cfg.integral
+        np.testing.assert_array_equal(cfg.gains.kp, [36.0, 36.0])
+        np.testing.assert_array_equal(cfg.gains.kv, [12.0, 12.0])
+        assert cfg.model.m == 2.0
+        q = np.array([0.3, 0.8])
+        np.testing.assert_allclose(cfg.model.g(q), [19.6 * 0.8 * np.cos(0.3), 19.6 * np.sin(0.3)], rtol=0,
+                                   atol=1e-12)
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.parametrize('key, value, match', [
+    ('zeta', 0.5, '^zeta: 0.5 breaks the rule'),
+    ('omega_n', 7.0, '^omega_n:'),
+    ('law', 'pid', "^law: unknown 'pid'"),
+    ('effort_limits', [1.0], '^effort_limits:'),
+    ('zeta', 1, '^zeta: expected type DOUBLE'),
+])
+def test_an_invalid_file_fails_naming_the_parameter(ros_context, tmp_path, key, value, match):
+    with open(os.path.join(CONFIG, 'polar_two_link.yaml')) as f:
+        doc = yaml.safe_load(f)
+    doc['controller']['ros__parameters'][key] = value
+    path = tmp_path / 'bad.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.raises(ParameterError, match=match):
+        _node_from_file(ros_context, str(path))

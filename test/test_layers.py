@@ -1,0 +1,79 @@
+"""The rclpy-free layers import no rclpy, no message package and (but the world) no pybullet.
+
+Each module is imported alone in a fresh interpreter, so a forbidden import anywhere in its
+import graph shows up in sys.modules. The module list is discovered at collection time: every
+module of the library's and the core's subpackages, plus the named modules that exist in this
+checkout (none is skipped: absent ones are simply not collected).
+"""
+import json
+import os
+import pkgutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: the rclpy-free layers: the library, the control core, the simulated world and the bridge's loop
+#: (whole subpackages), plus the named modules beside them
+PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core']
+NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
+         'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.ros.throttle',
+         'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.loop']
+PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces'}
+
+
+def _exists(name):
+    path = os.path.join(ROOT, *name.split('.'))
+    return os.path.isfile(path + '.py') or os.path.isfile(os.path.join(path, '__init__.py'))
+
+
+def _subpackage_modules(package):
+    path = os.path.join(ROOT, *package.split('.'))
+    return [package] + [f'{package}.{m.name}' for m in pkgutil.iter_modules([path])]
+
+
+LIBRARY = sorted({n for n in NAMED + [m for p in PACKAGES for m in _subpackage_modules(p)] if _exists(n)})
+
+PROBE = r'''
+import importlib, json, sys
+importlib.import_module(sys.argv[1])
+print(json.dumps(sorted(sys.modules)))
+'''
+
+
+def _forbidden(module, allow_pybullet):
+    top = module.split('.')[0]
+    ros = top == 'rclpy' or top.endswith('_msgs') or top == 'builtin_interfaces' or top.startswith('rosidl')
+    bullet = top in ('pybullet', 'pybullet_utils', 'pybullet_envs')  # pybullet_data is data only
+    return ros or (bullet and not allow_pybullet)
+
+
+def test_the_layer_list_holds_the_laws_and_models():
+    assert {'robot_control.laws.hybrid', 'robot_control.laws.servo', 'robot_control.models.closed_form',
+            'robot_control.core.controller', 'sim_bridge.loop'} <= set(LIBRARY)
+
+
+def _loaded(name):
+    """sys.modules (names) after importing `name` alone in a fresh interpreter."""
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get('PYTHONPATH', ''))
+    out = subprocess.run([sys.executable, '-c', PROBE, name], cwd=ROOT, env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize('name', LIBRARY)
+def test_library_module_imports_no_ros_and_no_pybullet(name):
+    loaded = _loaded(name)
+    assert name in loaded
+    bad = [m for m in loaded if _forbidden(m, name in PYBULLET_ALLOWED)]
+    assert not bad, f'{name} pulls in {bad}'
+
+
+def test_the_probe_detects_a_forbidden_import():
+    """The check itself can fail: importing pybullet (a module that does) is caught."""
+    bad = [m for m in _loaded('pybullet') if _forbidden(m, False)]
+    assert bad == ['pybullet']
+    assert _forbidden('sensor_msgs.msg', True) and _forbidden('rclpy.node', True)
+    assert not _forbidden('pybullet', True) and not _forbidden('pybullet_data', False)

@@ -1,0 +1,464 @@
+"""The demo as a user runs it (`python -m robot_control.demo`), its process handling, its metrics and
+the README results generator. The lecture's experiments themselves are in test_experiments.py.
+
+Process tests start the demo as a subprocess on a claimed private domain (e2e_helpers) and check
+that every process it started is gone afterwards: after a normal end, after Ctrl-C (SIGINT) and
+after SIGTERM. All waits are bounded by deadlines.
+"""
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from e2e_helpers import E2E_DOMAINS
+from robot_control.tools import demo, demo_experiments, demo_metrics, demo_procs, readme_results
+from robot_control.tools.demo_procs import DomainClaim
+
+ROOT = Path(__file__).resolve().parents[2]
+SUMMARY_KEYS = ('scenario', 'mode', 'duration_s', 'samples', 'rms_error', 'max_error', 'final_error',
+                'steady_state_error', 'settling_time_s', 'force_rms_error', 'saturated_ticks', 'loop_rate_hz',
+                'latency_p50_ms', 'latency_p99_ms')
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:  # a zombie is gone for our purpose
+        with open(f'/proc/{pid}/stat') as f:
+            return f.read().split(')')[-1].split()[0] != 'Z'
+    except OSError:
+        return False
+
+
+def _wait_gone(pids, timeout=15.0):
+    deadline = time.monotonic() + timeout
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return [p for p in pids if _alive(p)]
+
+
+def _child_pids(text):
+    m = re.search(r'started sim_bridge \(pid (\d+)\) and controller \(pid (\d+)\)', text)
+    return [int(m.group(1)), int(m.group(2))] if m else []
+
+
+class DemoProcess:
+    """`python -m robot_control.demo ...` in its own session, output collected line by line."""
+
+    def __init__(self, args, domain_id):
+        self.proc = subprocess.Popen([sys.executable, '-m', 'robot_control.demo', '--domain-id', str(domain_id),
+                                      *args], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     text=True, start_new_session=True)
+        os.set_blocking(self.proc.stdout.fileno(), False)
+        self.out = ''
+
+    def read(self):
+        try:
+            chunk = self.proc.stdout.read()
+        except (TypeError, OSError):
+            chunk = None
+        if chunk:
+            self.out += chunk
+        return self.out
+
+    def wait_for(self, pattern, timeout):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if re.search(pattern, self.read()):
+                return True
+            if self.proc.poll() is not None:
+                return bool(re.search(pattern, self.read()))
+            time.sleep(0.05)
+        return False
+
+    def wait(self, timeout):
+        deadline = time.monotonic() + timeout
+        while self.proc.poll() is None and time.monotonic() < deadline:
+            self.read()
+            time.sleep(0.05)
+        self.read()
+        return self.proc.poll()
+
+    def kill(self):
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait(timeout=10)
+
+
+@pytest.fixture
+def domain():
+    with DomainClaim(E2E_DOMAINS, start=5) as claim:
+        yield claim.domain_id
+
+
+# -- the command line, end to end --------------------------------------------------------------------
+def test_demo_command_writes_summary_plot_and_bag_and_stops_its_processes(tmp_path, domain):
+    out = tmp_path / 'single_link'
+    p = DemoProcess(['--scenario', 'single_link', '--duration', '0.8', '--out', str(out)], domain)
+    try:
+        code = p.wait(240.0)
+    finally:
+        p.kill()
+    text = p.read()
+    assert code == 0, text
+    assert re.search(r'^\s+t = \s*\d+\.\d+ s .*ticks/s', text, re.M) or 'running 0.8 s' in text  # progress
+    assert 'RMS error' in text and 'settling time' in text                              # the summary table
+    pids = _child_pids(text)
+    assert len(pids) == 2 and not _wait_gone(pids, 5.0)
+    summary = json.loads((out / 'summary.json').read_text())
+    for key in SUMMARY_KEYS:
+        assert key in summary, key
+    assert summary['scenario'] == 'single_link' and summary['mode'] == 'lockstep'
+    assert summary['duration_s'] == 0.8 and summary['expected_ticks'] == 801
+    assert summary['samples'] >= 0.8 * 801
+    assert set(summary['rms_error']) == {'theta'} and summary['units'] == {'theta': 'rad'}
+    assert summary['loop_rate_hz'] > 0 and 0 < summary['latency_p50_ms'] <= summary['latency_p99_ms']
+    assert summary['domain_id'] == domain
+    assert (out / 'tracking.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    assert (out / 'bag' / 'metadata.yaml').is_file()
+    assert (out / 'logs' / 'sim_bridge.log').is_file() and (out / 'logs' / 'controller.log').is_file()
+
+
+@pytest.mark.parametrize('sig,code', [(signal.SIGINT, 130), (signal.SIGTERM, 130)])
+def test_demo_stops_every_process_on_a_signal(tmp_path, domain, sig, code):
+    p = DemoProcess(['--scenario', 'polar_two_link', '--duration', '600', '--no-plot', '--out',
+                     str(tmp_path / 'run')], domain)
+    try:
+        assert p.wait_for(r'running 600 s of simulation', 120.0), p.read()
+        pids = _child_pids(p.read())
+        assert len(pids) == 2 and all(_alive(q) for q in pids)
+        os.kill(p.proc.pid, sig)
+        assert p.wait(30.0) == code, p.read()
+    finally:
+        p.kill()          # its children die with it (demo_procs.die_with_parent)
+    assert 'interrupted' in p.read()
+    assert not _wait_gone(pids, 5.0), 'a child of the demo survived it'
+
+
+def test_the_children_die_with_a_killed_demo(tmp_path, domain):
+    """SIGKILL runs no `finally`: the bridge and the controller (each in a session of its own) are
+    killed by the kernel with the demo (PR_SET_PDEATHSIG) instead of running on in its domain."""
+    p = DemoProcess(['--scenario', 'polar_two_link', '--duration', '600', '--no-plot', '--no-record', '--out',
+                     str(tmp_path / 'run')], domain)
+    pids = []
+    try:
+        assert p.wait_for(r'running 600 s of simulation', 120.0), p.read()
+        pids = _child_pids(p.read())
+        assert len(pids) == 2 and all(_alive(q) for q in pids)
+        os.kill(p.proc.pid, signal.SIGKILL)          # the demo alone, not its process group
+        assert p.wait(10.0) == -signal.SIGKILL
+        assert not _wait_gone(pids, 5.0), 'a child of the demo survived its SIGKILL'
+    finally:
+        p.kill()
+        for q in pids:                              # only if the test failed: still one of the demo's nodes
+            if _alive(q) and _is_node(q):
+                os.kill(q, signal.SIGKILL)
+
+
+def _is_node(pid):
+    """True when process `pid` runs the bridge or the controller node (not a reused pid)."""
+    try:
+        cmdline = Path(f'/proc/{pid}/cmdline').read_bytes()
+    except OSError:
+        return False
+    return b'sim_bridge.bridge_node' in cmdline or b'robot_control.ros.controller_node' in cmdline
+
+
+# -- process management ------------------------------------------------------------------------------
+@pytest.mark.filterwarnings('ignore::pytest.PytestUnraisableExceptionWarning')   # the swallowed one, on purpose
+def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
+    """Python drops an exception raised inside __del__ (an rclpy Future's, say): the demo then ran on
+    after a SIGTERM. The handler also remembers the signal, and the polling loops raise it again."""
+    class Finalized:
+        def __del__(self):
+            signal.raise_signal(signal.SIGTERM)
+            for _ in range(1000):     # the handler runs here, and its Interrupted goes nowhere
+                pass
+
+    old = demo_procs.install_signal_handlers()
+    try:
+        demo_procs.check_interrupted()          # nothing received yet
+        Finalized()
+        with pytest.raises(demo_procs.Interrupted, match='SIGTERM'):
+            demo_procs.check_interrupted()
+    finally:
+        demo_procs.restore_signal_handlers(old)
+    demo_procs.check_interrupted()              # restored: forgotten
+
+
+def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
+    stubborn = ('import signal, time\n'
+                'signal.signal(signal.SIGINT, signal.SIG_IGN)\n'
+                'signal.signal(signal.SIGTERM, signal.SIG_IGN)\n'
+                'print("ready", flush=True)\n'
+                'time.sleep(600)\n')
+    p = demo_procs.ManagedProcess('stubborn', [sys.executable, '-c', stubborn], dict(os.environ),
+                                  tmp_path / 'stubborn.log').start()
+    try:
+        deadline = time.monotonic() + 30
+        while 'ready' not in p.log_tail() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        p.check_alive()
+        code = p.stop(waits=(0.5, 0.5, 5.0))
+    finally:
+        if p.running():
+            os.killpg(p.pid, signal.SIGKILL)
+    assert code == -signal.SIGKILL and p.stop_signal == signal.SIGKILL and not p.running()
+    dead = demo_procs.ManagedProcess('dies', [sys.executable, '-c', 'print("bye"); raise SystemExit(3)'],
+                                     dict(os.environ), tmp_path / 'dies.log').start()
+    dead.proc.wait(timeout=30)
+    with pytest.raises(demo_procs.ProcessError, match=r'(?s)dies \(pid \d+\) exited with status 3.*bye'):
+        dead.check_alive()
+    dead.stop()
+
+
+def test_ros_env_keeps_dds_on_this_machine():
+    env = demo_procs.ros_env(77, {'ROS_DOMAIN_ID': '0', 'ROS_STATIC_PEERS': '10.0.0.2', 'PATH': '/bin'})
+    assert env['ROS_DOMAIN_ID'] == '77' and env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
+    assert 'ROS_STATIC_PEERS' not in env and env['PATH'] == '/bin'
+    with pytest.raises(ValueError, match='^domain_id'):
+        demo_procs.ros_env(300)
+    lo, hi = demo_procs.DEMO_DOMAIN_RANGE
+    assert all(lo <= demo_procs.pick_domain_id(pid) <= hi for pid in (1, 12345, 99999))
+
+
+def test_domain_claims_are_exclusive(tmp_path):
+    with DomainClaim([5, 6], directory=tmp_path) as a, DomainClaim([5, 6], directory=tmp_path) as b:
+        assert {a.domain_id, b.domain_id} == {5, 6}
+        with pytest.raises(TimeoutError, match='^domain_id'):
+            DomainClaim([5, 6], directory=tmp_path, timeout=0.0).acquire()
+    with DomainClaim([5, 6], directory=tmp_path) as c:
+        assert c.domain_id == 5
+
+
+def test_node_command_lines_use_the_scenario_file_and_typed_overrides():
+    argv = demo.node_argv('sim_bridge.bridge_node', 'force_1dof',
+                          {'mode': 'lockstep', 'initial_positions': [0.1], 'surface.enable': False,
+                           'disturbance.joint_torque': [-2]}, demo.BRIDGE_ARGS)
+    assert argv[:3] == [sys.executable, '-m', 'sim_bridge.bridge_node']
+    i = argv.index('--ros-args')
+    assert argv[i + 1] == '--params-file' and argv[i + 2].endswith('config/force_1dof.yaml')
+    assert Path(argv[i + 2]).is_file()
+    overrides = [argv[k + 1] for k in range(i, len(argv)) if argv[k] == '-p']
+    assert overrides == ['mode:=lockstep', 'initial_positions:=[0.1]', 'surface.enable:=false',
+                         'disturbance.joint_torque:=[-2.0]']
+    with pytest.raises(ValueError, match='^scenario'):
+        demo.config_path('no_such_scenario')
+
+
+# -- experiments and metrics (no DDS) ----------------------------------------------------------------
+def test_every_scenario_has_an_experiment_with_valid_references():
+    from robot_control import scenarios
+    from robot_control.trajectory import from_points
+    assert set(demo_experiments.DEFAULT_FOR_SCENARIO) == set(scenarios.SCENARIOS)
+    for name in demo_experiments.EXPERIMENTS:
+        exp = demo_experiments.get(name)
+        assert exp.scenario in scenarios.SCENARIOS and exp.duration > 0
+        assert demo.config_path(exp.scenario).is_file()
+        spec = exp.trajectory
+        if spec is not None:
+            n = len(exp.joints)
+            start = (np.array(exp.bridge.get('initial_positions', scenarios.get(exp.scenario).q0)), None, None)
+            traj = from_points(spec.t_start, start, spec.times, spec.positions, spec.velocities, spec.accelerations)
+            assert traj.n == n and traj.t0 == spec.t_start
+        if exp.law in ('force', 'hybrid'):
+            assert exp.force is not None and len(exp.force) == len(scenarios.get(exp.scenario).force_axes)
+    assert demo_experiments.output_name('polar_step') == 'polar_two_link'
+    assert demo_experiments.output_name('iiwa') == 'iiwa'
+    assert demo_experiments.output_name('disturbance_pd') == 'disturbance_pd'
+    with pytest.raises(ValueError, match='^experiment'):
+        demo_experiments.get('nope')
+
+
+def test_iiwa_references_keep_the_tip_on_the_table():
+    model = demo_experiments.iiwa_model()
+    exp = demo_experiments.get('iiwa_hybrid_line')
+    start = np.array(exp.bridge['initial_positions'])
+    assert np.allclose(model.fk(start), [*demo_experiments.IIWA_TABLE, demo_experiments.IIWA_Z], atol=1e-9)
+    tips = np.array([model.fk(np.array(q)) for q in exp.trajectory.positions])
+    assert np.allclose(tips[:, 2], demo_experiments.IIWA_Z, atol=1e-9)
+    assert np.allclose(tips[:, 0], demo_experiments.IIWA_TABLE[0], atol=1e-9)
+    assert tips[-1, 1] - demo_experiments.IIWA_TABLE[1] == pytest.approx(demo_experiments.IIWA_LINE, abs=1e-9)
+
+
+def test_settling_time_of_the_critically_damped_step():
+    t = np.arange(0.0, 3.0, 0.001)
+    e = demo_metrics.critically_damped(t, 0.5, 6.0)
+    assert demo_metrics.settling_time(t, e, 0.0, e_final=0.0) == pytest.approx(5.834 / 6.0, abs=2e-3)
+    assert demo_metrics.settling_time(t, np.zeros_like(t), 0.0) == 0.0
+    assert demo_metrics.settling_time(t, np.sin(t * 50), 0.0, e_final=0.0) is None   # never settles
+
+
+def _synthetic_run(law='computed_torque'):
+    t = np.arange(0, 1001) * 0.001
+    e = np.stack([demo_metrics.critically_damped(t, 0.2, 6.0), np.zeros_like(t)], axis=1)
+    q_d = np.tile([0.2, 0.5], (t.size, 1))
+    return demo_metrics.RunData(
+        t=t, joints=('theta1', 'r'), joint_units=('rad', 'm'), q=q_d - e, qd=np.zeros_like(e),
+        tau_applied=np.zeros_like(e), tau_cmd=np.where(t[:, None] < 0.01, 200.0, 1.0) * np.ones_like(e),
+        ref_names=('theta1', 'r'), ref_pos=q_d, ref_vel=np.zeros_like(e), ref_acc=np.zeros_like(e), err_pos=e,
+        err_vel=np.zeros_like(e), force_xyz=np.zeros((t.size, 3)), force_axes=(), force_axis_index=(), law=law,
+        effort_limit=[200.0, 200.0], state_wall_ns=np.arange(t.size) * 2_000_000,
+        cmd_wall_ns=np.arange(t.size) * 2_000_000 + 500_000)
+
+
+def test_summary_metrics_on_a_synthetic_run():
+    exp = demo_experiments.get('polar_step')
+    s = demo_metrics.summarize(_synthetic_run(), exp, 'lockstep', 1.0)
+    for key in SUMMARY_KEYS:
+        assert key in s
+    e = demo_metrics.critically_damped(np.arange(0, 1001) * 0.001, 0.2, 6.0)
+    assert s['rms_error']['theta1'] == pytest.approx(np.sqrt(np.mean(e ** 2)))
+    assert s['max_error'] == {'theta1': 0.2, 'r': 0.0}
+    assert s['final_error']['theta1'] == pytest.approx(e[-1])
+    assert s['saturated_ticks'] == 10
+    assert s['loop_rate_hz'] == pytest.approx(500.0)
+    assert s['latency_p50_ms'] == pytest.approx(0.5) and s['latency_p99_ms'] == pytest.approx(0.5)
+    assert s['units'] == {'theta1': 'rad', 'r': 'm'}
+    json.dumps(s, allow_nan=False)
+    text = demo_metrics.format_summary(s)
+    assert 'theta1' in text and 'rad' in text and 'saturated ticks' in text
+
+
+# -- the README results table ----------------------------------------------------------------------------
+def _write_summary(base, name, **extra):
+    s = {'scenario': 'polar_two_link', 'experiment': name, 'mode': 'lockstep', 'law': 'computed_torque',
+         'duration_s': 2.0, 'samples': 2001, 'units': {'theta1': 'rad', 'r': 'm'},
+         'rms_error': {'theta1': 0.0123, 'r': 0.00045}, 'max_error': {'theta1': 0.5, 'r': 0.2},
+         'final_error': {'theta1': 1e-5, 'r': 2e-6}, 'steady_state_error': {'theta1': -1e-5, 'r': 0.0},
+         'settling_time_s': 0.964, 'force_rms_error': None, 'saturated_ticks': 0, 'loop_rate_hz': 412.5,
+         'latency_p50_ms': 0.85, 'latency_p99_ms': 4.2}
+    s.update(extra)
+    (base / name).mkdir(parents=True)
+    (base / name / 'summary.json').write_text(json.dumps(s))
+
+
+def test_readme_results_table_is_generated_between_the_markers(tmp_path):
+    results = tmp_path / 'out' / 'demo'
+    _write_summary(results, 'polar_two_link', experiment='polar_step')
+    _write_summary(results, 'force_1dof', experiment='force_steps', scenario='force_1dof', law='force',
+                   units={}, rms_error={}, max_error={}, final_error={}, steady_state_error={},
+                   force_rms_error={'x': 0.0123}, settling_time_s=None)
+    readme = tmp_path / 'README.md'
+    head, tail = '# robot_control\n\nintro\n\n## Results\n', '\n## After\n\nkept | as is\n'
+    readme.write_text(head + readme_results.BEGIN + '\nold table\n' + readme_results.END + tail)
+    assert readme_results.main(['--readme', str(readme), '--results', str(results), '--check']) == 1
+    assert 'old table' in readme.read_text()                        # --check changes nothing
+    assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
+    text = readme.read_text()
+    assert text.startswith(head + readme_results.BEGIN) and text.endswith(readme_results.END + tail)
+    assert 'old table' not in text
+    rows = [line for line in text.splitlines() if line.startswith('| ') and 'experiment' not in line]
+    assert len(rows) == 2
+    assert rows[0].startswith('| polar_step (polar_two_link) | polar_two_link | computed_torque | lockstep | 2 s |')
+    assert 'theta1 0.0123 rad, r 4.50e-04 m' in rows[0] and '0.964 s' in rows[0] and '412 Hz' in rows[0]
+    assert '0.85 / 4.2 ms' in rows[0]
+    assert rows[1].startswith('| force_steps (force_1dof) | force_1dof | force |') and 'x 0.0123 N' in rows[1]
+    assert readme_results.main(['--readme', str(readme), '--results', str(results), '--check']) == 0
+    assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
+    assert readme.read_text() == text                               # idempotent
+
+
+def test_readme_results_refuses_a_readme_without_markers_and_bad_summaries(tmp_path):
+    readme = tmp_path / 'README.md'
+    readme.write_text('# no markers\n')
+    with pytest.raises(ValueError, match='^readme: needs the markers'):
+        readme_results.update(readme, tmp_path)
+    assert readme.read_text() == '# no markers\n'
+    readme.write_text(f'{readme_results.BEGIN}\n{readme_results.END}\n')
+    (tmp_path / 'bad').mkdir()
+    (tmp_path / 'bad' / 'summary.json').write_text('{"scenario": "x"}')
+    with pytest.raises(ValueError, match='missing keys'):
+        readme_results.update(readme, tmp_path)
+    (tmp_path / 'bad' / 'summary.json').unlink()
+    assert readme_results.update(readme, tmp_path) is True
+    assert 'No results yet' in readme.read_text()
+
+
+def test_readme_bench_table_is_the_benchs_results_md_between_its_markers(tmp_path):
+    from robot_control.tools import bench
+    results = {'law_us_ct_2dof_median': 7.5, 'lockstep_vs_pingpong_ratio': 0.55}
+    machine = {'cpu_model': 'AMD EPYC', 'cores': 2, 'python': '3.11.7', 'pinocchio': '4.1.0', 'pybullet': '3.2.7',
+               'date': '2026-11-22', 'load_average': [1.5, 1.25, 1.0]}
+    (tmp_path / 'bench').mkdir()
+    (tmp_path / 'bench' / 'results.md').write_text(bench.markdown(results, machine, quick=False))
+    readme = tmp_path / 'README.md'
+    head, mid, tail = '# r\n', '\n## Benchmarks\n', '\nprose after\n'
+    readme.write_text(head + readme_results.BEGIN + '\n' + readme_results.END + mid + readme_results.BENCH_BEGIN
+                      + '\n| hand | typed |\n' + readme_results.BENCH_END + tail)
+    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), '--bench', str(tmp_path / 'bench')]
+    assert readme_results.main(args) == 0
+    text = readme.read_text()
+    block = text[text.index(readme_results.BENCH_BEGIN):text.index(readme_results.BENCH_END)]
+    assert '| hand | typed |' not in text and text.endswith(readme_results.BENCH_END + tail)
+    assert 'Full run of `make bench` on 2026-11-22, AMD EPYC, 2 cores' in block
+    assert 'load average 1.50 / 1.25 / 1.00 at the end' in block
+    assert '| `law_us_ct_2dof_median` | 7.5 | met (<= 10) |' in block
+    assert '| `lockstep_vs_pingpong_ratio` | 0.55 | MISSED (>= 0.8) |' in block
+    assert readme_results.main(args + ['--check']) == 0
+
+def _robustness_summary():
+    fig = {
+        '1_controller_sigkill': {'brake_after_last_command_s': 0.051, 'drift_with_brakes_m': 0.0},
+        '2_bridge_sigkill': {'watchdog_error_after_s': 0.501},
+        '4_flood': {'publisher_rate_hz': 19999, 'rss_growth_mb': 1.7, 'answer_age_p99_ms': 4.88},
+        '6_second_publisher_robot_joint_commands': {'detected_after_s': 0.024, 'rogue_efforts_applied': 0,
+                                                    'rogue_messages_sent': 172},
+        '6_second_publisher_effort_controller/commands': {'detected_after_s': 0.007, 'rogue_efforts_applied': 0,
+                                                          'rogue_messages_sent': 168},
+        '7_unguarded': {'travel_m': 0.1088}, '7_lost_contact_processes': {'max_beyond_surface_m': 0.0111},
+        '8_library_computed_torque': {'worst_excess_overshoot': 0.0048},
+        '8_library_independent_joint': {'worst_excess_overshoot': 0.0192},
+        '8_saturated_step_processes': {'overshoot_saturated': [0.0005, 0.0019], 'overshoot_unsaturated': [0.0002, 0.0002]},
+        '8_without_anti_windup': {'overshoot': [0.2808, 0.2532]},
+    }
+    return {'faults_injected': 15, 'faults_survived': 15, 'efforts_checked': 41638, 'unsafe_commands_published': 0,
+            'bad_inputs_per_topic': {'controller joint_states': 4000, 'bridge robot_joint_commands': 4000},
+            'bad_inputs_total': 8000, 'figures': fig}
+
+
+def test_readme_robustness_table_is_generated_from_a_whole_run_only(tmp_path):
+    summary = _robustness_summary()
+    path = tmp_path / 'summary.json'
+    path.write_text(json.dumps(summary))
+    readme = tmp_path / 'README.md'
+    readme.write_text(readme_results.BEGIN + '\n' + readme_results.END + '\n## Safety\n'
+                      + readme_results.ROBUSTNESS_BEGIN + '\n| typed | by hand |\n' + readme_results.ROBUSTNESS_END + '\n')
+    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), '--robustness', str(path)]
+    assert readme_results.main(args) == 0
+    text = readme.read_text()
+    assert '| typed | by hand |' not in text
+    for cell in ('| 15 / 15 |', '| 4,000 each, 8,000 in all (bridge robot_joint_commands, controller joint_states) |', '| 41,638 |', '| **0** |',
+                 '| 0.051 s of simulated time (command_timeout 0.05 s) / 0.0 mm |', '| 0.50 s (state_timeout 0.5 s)',
+                 'at 19,999 Hz for 5 s', '| 1.7 MB / 4.9 ms |', '| 7-24 ms / 0 of 340 |', '| 11.1 mm, with ERROR / 109 mm |',
+                 '| <= 1.9% / 28% |'):
+        assert cell in text, cell
+    del summary['figures']['1_controller_sigkill']                 # a run with -k: refused, naming what is missing
+    path.write_text(json.dumps(summary))
+    with pytest.raises(ValueError, match=r"partial run \(missing \['1_controller_sigkill'\]\)"):
+        readme_results.update(readme, tmp_path / 'none', robustness=path)
+
+def test_lost_ticks_are_reported_as_time_ranges():
+    assert demo.time_ranges([]) == []
+    assert demo.time_ranges([0.679, 0.68, 0.681, 0.9, 0.901, 1.5]) == [[0.679, 0.681], [0.9, 0.901], [1.5, 1.5]]
+
+
+def test_an_interrupt_inside_a_c_extension_still_counts_as_an_interrupt():
+    try:
+        try:
+            raise demo_procs.Interrupted('signal SIGTERM')
+        except KeyboardInterrupt as exc:
+            raise TypeError('Unable to convert function return value to a Python type!') from exc
+    except TypeError as exc:
+        assert str(demo.interrupted(exc)) == 'signal SIGTERM'
+    assert demo.interrupted(RuntimeError('x')) is None
+    assert demo.interrupted(KeyboardInterrupt()) == 'Ctrl-C'
