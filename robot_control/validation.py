@@ -1,9 +1,23 @@
-"""Argument checks shared by the library: every failure is a ValueError naming the argument."""
+"""Argument checks shared by the library: every failure is an ArgumentError, a ValueError that carries
+the argument's name as data (`.name`) and reads '<name>: <reason>'."""
 import math
 
 import numpy as np
 
 F64 = np.dtype(np.float64)
+
+
+class ArgumentError(ValueError):
+    """A bad argument: `name` is the argument (or parameter) it names, `reason` what is wrong with it.
+
+    str() is '<name>: <reason>'. Callers that map arguments to their own names (the parameter
+    engine: a config field to its parameter) read `name`, never the text.
+    """
+
+    def __init__(self, name, reason):
+        self.name = name
+        self.reason = str(reason)
+        super().__init__(f'{name}: {self.reason}')
 
 
 def is_vector(value, n):
@@ -50,15 +64,15 @@ def vector(name, value, n=None):
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name}: expected a sequence of numbers, got {value!r}') from exc
+        raise ArgumentError(name, f'expected a sequence of numbers, got {value!r}') from exc
     if a.ndim == 0:
         a = a.reshape(1)
     if a.ndim != 1:
-        raise ValueError(f'{name}: expected a 1-D array, got shape {a.shape}')
+        raise ArgumentError(name, f'expected a 1-D array, got shape {a.shape}')
     if n is not None and a.shape[0] != n:
-        raise ValueError(f'{name}: expected length {n}, got {a.shape[0]}')
+        raise ArgumentError(name, f'expected length {n}, got {a.shape[0]}')
     if not np.all(np.isfinite(a)):
-        raise ValueError(f'{name}: expected finite values, got {a.tolist()}')
+        raise ArgumentError(name, f'expected finite values, got {a.tolist()}')
     return a
 
 
@@ -67,11 +81,11 @@ def matrix(name, value, shape):
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name}: expected a {shape} matrix of numbers, got {value!r}') from exc
+        raise ArgumentError(name, f'expected a {shape} matrix of numbers, got {value!r}') from exc
     if a.shape != tuple(shape):
-        raise ValueError(f'{name}: expected shape {tuple(shape)}, got {a.shape}')
+        raise ArgumentError(name, f'expected shape {tuple(shape)}, got {a.shape}')
     if not np.all(np.isfinite(a)):
-        raise ValueError(f'{name}: expected finite values')
+        raise ArgumentError(name, 'expected finite values')
     return a
 
 
@@ -80,13 +94,13 @@ def scalar(name, value, *, positive=False, nonnegative=False):
     try:
         x = float(value)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name}: expected a number, got {value!r}') from exc
+        raise ArgumentError(name, f'expected a number, got {value!r}') from exc
     if not math.isfinite(x):
-        raise ValueError(f'{name}: expected a finite number, got {x}')
+        raise ArgumentError(name, f'expected a finite number, got {x}')
     if positive and not x > 0.0:
-        raise ValueError(f'{name}: expected a positive number, got {x}')
+        raise ArgumentError(name, f'expected a positive number, got {x}')
     if nonnegative and not x >= 0.0:
-        raise ValueError(f'{name}: expected a non-negative number, got {x}')
+        raise ArgumentError(name, f'expected a non-negative number, got {x}')
     return x
 
 
@@ -94,11 +108,11 @@ def names(name, value, expected=None):
     """Return joint names as a tuple of unique strings; if `expected` is given, the same set."""
     got = tuple(value)
     if not all(isinstance(s, str) and s for s in got):
-        raise ValueError(f'{name}: expected non-empty strings, got {list(got)}')
+        raise ArgumentError(name, f'expected non-empty strings, got {list(got)}')
     if len(set(got)) != len(got):
-        raise ValueError(f'{name}: duplicate names in {list(got)}')
+        raise ArgumentError(name, f'duplicate names in {list(got)}')
     if expected is not None and set(got) != set(expected):
         unknown = sorted(set(got) - set(expected))
         missing = sorted(set(expected) - set(got))
-        raise ValueError(f'{name}: unknown {unknown}, missing {missing} (expected {list(expected)})')
+        raise ArgumentError(name, f'unknown {unknown}, missing {missing} (expected {list(expected)})')
     return got

@@ -73,6 +73,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
+from robot_control import units
 from robot_control.ros import cdr, conversions, spin
 from robot_control import scenarios
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
@@ -81,7 +82,7 @@ from sim_bridge import parameters as bridge_params
 from sim_bridge.loop import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter,
                                RealtimePacer, SourceGuard, stamp_ns)
 
-NS = 1_000_000_000
+NS = units.NS_PER_S
 #: /clock: reliable (also serves rclpy's and rclcpp's best-effort clock subscriptions), newest only
 CLOCK_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)  # deep: see qos.CONTROL_PUB_QOS
 COMMAND_TOPICS = ('robot_joint_commands', 'effort_controller/commands')
@@ -320,7 +321,7 @@ class SimBridge(Node):
 
     def _set_stamp(self, t_ns):
         """The Time shared by the /clock and ft_sensor/wrench messages."""
-        self._stamp.sec, self._stamp.nanosec = divmod(t_ns, NS)
+        self._stamp.sec, self._stamp.nanosec = units.split_ns(t_ns)
 
     def _step(self):
         """One control tick: hold the torque in force for control_period, publish the new state."""

@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from robot_control import units
+
 _F64 = np.dtype(np.float64)
 
 
@@ -95,9 +97,7 @@ class CommandWatchdog:
         return None if self.last_ns is None else t_ns - self.last_ns
 
 
-def stamp_ns(sec, nanosec):
-    """builtin_interfaces/Time fields -> integer nanoseconds."""
-    return sec * 1_000_000_000 + nanosec
+stamp_ns = units.stamp_ns
 
 
 class LockstepGate:

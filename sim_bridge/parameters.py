@@ -41,11 +41,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_control import scenarios, validation
+from robot_control import scenarios, units, validation
 
 MODES = ('realtime', 'lockstep')
-#: gravity of URDF robots unless overridden, m/s^2 (sim_bridge.world.DEFAULT_GRAVITY)
-URDF_GRAVITY = 9.81
 
 #: parameters that may change while the node runs (all others are read-only)
 DYNAMIC = ('real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
@@ -127,7 +125,7 @@ def specs(scenario_name, n):
                              f'Simulated robot physical parameter {key!r} (SI); differ from the '
                              "controller's model for a model-error payload."))
     if sc is None or sc.model == 'urdf':
-        out.append(ParamSpec('sim_params.gravity', 'double', URDF_GRAVITY,
+        out.append(ParamSpec('sim_params.gravity', 'double', units.GRAVITY,
                              'Gravitational acceleration of the simulated URDF robot, m/s^2 along world -z '
                              '(a heavier or lighter robot: point `urdf` at a modified URDF file).'))
     out += [
@@ -200,8 +198,8 @@ def _array(name, value, n):
 
 
 def _whole_ns(name, seconds):
-    ns = round(seconds * 1e9)
-    if ns < 1 or abs(seconds * 1e9 - ns) > 1e-3:
+    ns = units.to_ns(seconds)
+    if ns < 1 or abs(seconds * units.NS_PER_S - ns) > 1e-3:
         raise ValueError(f'{name}: expected whole nanoseconds, got {seconds!r} s')
     return int(ns)
 
@@ -223,9 +221,9 @@ def check_urdf(value, scenario):
         if not scenario:
             raise ValueError("urdf: required when scenario is '' (a custom robot)")
         return ''
-    from robot_control.models.urdf_model import resolve_urdf
+    from robot_control import urdf as urdf_files
     try:
-        return resolve_urdf(value)
+        return urdf_files.resolve(value)
     except ValueError:
         raise ValueError(f'urdf: no such file {value!r} (nor shipped nor in pybullet_data)') from None
 
@@ -305,7 +303,7 @@ def validate(values):
         scenario=scenario, urdf=urdf, joints=joints, initial_positions=q0, mode=mode,
         physics_step=physics_step, control_period=control_period, physics_step_ns=physics_ns,
         control_period_ns=control_ns, substeps=control_ns // physics_ns, clock_period_ns=clock_ns, real_time_factor=rtf,
-        command_timeout=timeout, command_timeout_ns=round(timeout * 1e9), lockstep_timeout=lockstep_timeout,
+        command_timeout=timeout, command_timeout_ns=units.to_ns(timeout), lockstep_timeout=lockstep_timeout,
         surface_enable=surface_enable, k_e=k_e, x_e=x_e, disturbance_joint_torque=dist_tau,
         disturbance_cartesian_force=dist_f, sim_params=sim_params, wrench_frame_id=frame,
         diagnostics_period=diag, gui=gui)

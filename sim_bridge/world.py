@@ -20,13 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from robot_control import scenarios, validation
+from robot_control import scenarios, units, validation
+from robot_control import urdf as urdf_files
 from robot_control.models import make_model, urdf_gen
 from sim_bridge import surfaces
 from sim_bridge.disturbance import Disturbance
 
 #: world gravity when neither the scenario nor `params` sets one, m/s^2
-DEFAULT_GRAVITY = 9.81
 #: brake holding force where the URDF sets no effort limit, N m or N
 UNLIMITED_BRAKE = 1.0e6
 
@@ -45,19 +45,6 @@ class _Spec:
     surface: object           # scenarios.Surface or None
     surface_damping: float    # N s/m
     spring: tuple             # (k N/m^3, b N s/m) of mass_spring_cubic, or None
-
-
-def _find_urdf(name):
-    """Absolute path of `name`: an existing path, a shipped file (robot_control/urdf) or pybullet_data."""
-    if not isinstance(name, (str, os.PathLike)) or not os.fspath(name).strip():
-        raise ValueError(f'urdf: expected a URDF file path, got {name!r}')
-    name = os.fspath(name)
-    import pybullet_data
-    for base in ('', urdf_gen.SHIPPED_DIR, pybullet_data.getDataPath()):
-        for candidate in (os.path.join(base, name), os.path.join(base, name + '.urdf')):
-            if os.path.isfile(candidate):
-                return os.path.abspath(candidate)
-    raise ValueError(f'urdf: no such file {name!r} (nor in {urdf_gen.SHIPPED_DIR} or pybullet_data)')
 
 
 def _scenario(scenario):
@@ -84,7 +71,7 @@ def _truth(sc, params):
             model = make_model(sc.model, **truth)
         except ValueError as exc:
             raise ValueError(f'params: {exc}') from None
-    gravity = validation.scalar('params.gravity', truth.get('gravity', DEFAULT_GRAVITY), nonnegative=True)
+    gravity = validation.scalar('params.gravity', truth.get('gravity', units.GRAVITY), nonnegative=True)
     return truth, model, gravity
 
 
@@ -101,13 +88,13 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir
     truth, model, gravity = _truth(sc, params)
     closed_form = model is not None
     if urdf is not None:
-        path = _find_urdf(urdf)
+        path = urdf_files.resolve(urdf)
     elif sc is None:
         raise ValueError('urdf: required when scenario is None')
     elif closed_form and truth != dict(sc.params):
         path = urdf_gen.write_urdf(os.path.join(tmpdir, f'{sc.model}.urdf'), sc.model, **truth)
     else:
-        path = _find_urdf(sc.urdf or sc.model)
+        path = urdf_files.resolve(sc.urdf or sc.model)
     if joints is None and sc is None:
         raise ValueError('joints: required when scenario is None')
     joints = validation.names('joints', sc.joints if joints is None else joints)

@@ -5,7 +5,7 @@ make_model('urdf', ...), for_scenario of a URDF scenario).
 """
 import numpy as np
 
-from robot_control import validation
+from robot_control import units, validation
 from robot_control.models.base import RobotModel
 from robot_control.models.closed_form import CLOSED_FORM
 
@@ -57,7 +57,7 @@ def for_scenario(scenario, **overrides):
         raise ValueError(f'overrides: unknown {unknown} for URDF scenario {scenario.name!r}; '
                          f'expected some of {sorted(allowed)}')
     args = {'urdf': scenario.urdf, 'joints': scenario.joints, 'tip': scenario.tip or None,
-            'gravity': scenario.params.get('gravity', 9.81), **overrides}
+            'gravity': scenario.params.get('gravity', units.GRAVITY), **overrides}
     if np.ndim(args['gravity']) == 0:
         args['gravity'] = (0.0, 0.0, -validation.scalar('gravity', args['gravity']))
     if isinstance(args['urdf'], str) and not args['urdf'].lstrip().startswith('<'):

@@ -8,10 +8,9 @@ import math
 
 import numpy as np
 
-from robot_control import validation
+from robot_control import units, validation
 from robot_control.models.base import RobotModel
 
-G0 = 9.81  #: default gravitational acceleration, m/s^2
 
 
 def _param(name, value):
@@ -79,7 +78,7 @@ class SingleLink(_ClosedForm):
     joint_names = ('theta',)
     task_axes = ('x', 'y')
 
-    def __init__(self, m=1.0, l=0.5, gravity=G0):
+    def __init__(self, m=1.0, l=0.5, gravity=units.GRAVITY):
         self.m = _param('m', m)
         self.l = _param('l', l)
         self.gravity = validation.scalar('gravity', gravity, nonnegative=True)
@@ -116,7 +115,7 @@ class PolarTwoLink(_ClosedForm):
     joint_names = ('theta1', 'r')
     task_axes = ('x', 'y')
 
-    def __init__(self, m=2.0, gravity=G0):
+    def __init__(self, m=2.0, gravity=units.GRAVITY):
         self.m = _param('m', m)
         self.gravity = validation.scalar('gravity', gravity, nonnegative=True)
 
@@ -168,7 +167,7 @@ class PlanarTwoLink(_ClosedForm):
     joint_names = ('theta1', 'theta2')
     task_axes = ('x', 'y')
 
-    def __init__(self, m1=1.0, m2=1.0, l1=0.5, l2=0.5, gravity=G0):
+    def __init__(self, m1=1.0, m2=1.0, l1=0.5, l2=0.5, gravity=units.GRAVITY):
         self.m1, self.m2 = _param('m1', m1), _param('m2', m2)
         self.l1, self.l2 = _param('l1', l1), _param('l2', l2)
         self.gravity = validation.scalar('gravity', gravity, nonnegative=True)
@@ -286,7 +285,7 @@ class CartesianXY(_Cartesian):
     joint_names = ('x', 'y')
     task_axes = ('x', 'y')
 
-    def __init__(self, m1=1.0, m2=1.0, gravity=G0):
+    def __init__(self, m1=1.0, m2=1.0, gravity=units.GRAVITY):
         self.m1, self.m2 = _param('m1', m1), _param('m2', m2)
         self.gravity = validation.scalar('gravity', gravity, nonnegative=True)
         super().__init__([self.m1, self.m1 + self.m2], 1, self.gravity)
@@ -301,7 +300,7 @@ class CartesianXYZ(_Cartesian):
     joint_names = ('x', 'y', 'z')
     task_axes = ('x', 'y', 'z')
 
-    def __init__(self, m1=1.0, m2=1.0, m3=1.0, gravity=G0):
+    def __init__(self, m1=1.0, m2=1.0, m3=1.0, gravity=units.GRAVITY):
         self.m1, self.m2, self.m3 = _param('m1', m1), _param('m2', m2), _param('m3', m3)
         self.gravity = validation.scalar('gravity', gravity, nonnegative=True)
         super().__init__([self.m1 + self.m2, self.m1, self.m1 + self.m2 + self.m3], 2, self.gravity)

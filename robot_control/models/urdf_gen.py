@@ -27,6 +27,7 @@ import argparse
 import math
 import os
 
+from robot_control import urdf as urdf_files
 from robot_control.models.closed_form import CLOSED_FORM
 
 #: radius of the collision (and visual) sphere around the tip mass, m
@@ -46,7 +47,7 @@ PRISMATIC_LIMITS = (-1.0, 1.0)
 PLANE_AXIS = (0.0, -1.0, 0.0)
 X_AXIS, Y_AXIS, Z_AXIS = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 
-SHIPPED_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'urdf')
+SHIPPED_DIR = urdf_files.DIR
 
 _ROD_RADIUS = 0.01
 _MATERIALS = (('grey', '0.6 0.6 0.6 1'), ('blue', '0.2 0.4 0.8 1'), ('orange', '1.0 0.5 0.1 1'))

@@ -7,71 +7,23 @@ neutral configuration. Task space: the 3-D position of frame `tip` in the world 
 J and Jdot qd are expressed in LOCAL_WORLD_ALIGNED axes (world axes at the tip point).
 Units SI; gravity is a world vector, default (0, 0, -9.81) m/s^2.
 """
-import os
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
 import numpy as np
 import pinocchio as pin
 
-from robot_control import validation
+from robot_control import urdf as urdf_files
+from robot_control import units, validation
 from robot_control.models.base import RobotModel
 
 #: world axes at the tip point, the frame of J and Jdot qd
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
-#: directory of the shipped URDFs (robot_control/urdf)
-URDF_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'urdf')
-
-
-def _search_dirs():
-    dirs = [URDF_DIR]
-    try:
-        import pybullet_data  # data-only package: does not import pybullet
-        dirs.append(pybullet_data.getDataPath())
-    except ImportError:
-        pass
-    return dirs
-
-
-def resolve_urdf(name):
-    """Absolute path of URDF `name`: a shipped file in robot_control/urdf/ ('polar_two_link'
-    or 'polar_two_link.urdf'), a pybullet_data relative path ('kuka_iiwa/model.urdf'), or an
-    existing file path. ValueError naming `name` when none exists."""
-    if not isinstance(name, str) or not name.strip():
-        raise ValueError(f'name: expected a URDF file name, got {name!r}')
-    candidates = []
-    if not os.path.isabs(name):
-        for base in _search_dirs():
-            candidates.append(os.path.join(base, name))
-            if not name.endswith('.urdf'):
-                candidates.append(os.path.join(base, name + '.urdf'))
-    candidates.append(name)
-    for path in candidates:
-        if os.path.isfile(path):
-            return os.path.abspath(path)
-    raise ValueError(f'name: no URDF file {name!r} in {_search_dirs()} nor as a path')
-
-
-def _read_urdf(urdf):
-    """(xml text, description) from a URDF XML string, a file path or a resolvable name."""
-    if not isinstance(urdf, (str, os.PathLike)):
-        raise ValueError(f'urdf: expected a file path or URDF XML text, got {type(urdf).__name__}')
-    text = os.fspath(urdf)
-    if text.lstrip().startswith('<'):
-        return text, 'URDF XML string'
-    path = text if os.path.isfile(text) else _resolve_or_none(text)
-    if path is None:
-        raise ValueError(f'urdf: no such file {text!r} (nor shipped or in pybullet_data)')
-    with open(path, encoding='utf-8') as f:
-        return f.read(), path
-
-
-def _resolve_or_none(name):
-    try:
-        return resolve_urdf(name)
-    except ValueError:
-        return None
+#: directory of the shipped URDFs
+URDF_DIR = urdf_files.DIR
+#: the lookup of a URDF by name (robot_control.urdf.resolve)
+resolve_urdf = urdf_files.resolve
 
 
 def _parse(xml, where):
@@ -100,7 +52,7 @@ class UrdfModel(RobotModel):
     gravity: world gravity vector, m/s^2.
     """
 
-    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -9.81)):
+    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -units.GRAVITY)):
         gravity = validation.vector('gravity', gravity, 3)
         if isinstance(joints, str):
             joints = (joints,)
@@ -109,7 +61,7 @@ class UrdfModel(RobotModel):
                 joints = validation.names('joints', joints)
             except TypeError:
                 raise ValueError(f'joints: expected a sequence of joint names, got {joints!r}') from None
-        xml, where = _read_urdf(urdf)
+        xml, where = urdf_files.read(urdf)
         full = _parse(xml, where)
         self.source = where                  # file path, or 'URDF XML string'
         movable = tuple(full.names[1:])

@@ -27,7 +27,7 @@ import struct
 
 import numpy as np
 
-NS_PER_S = 1_000_000_000
+from robot_control.units import NS_PER_S  # noqa: E402  (kept beside the layout constants)
 INT32_MAX = 2 ** 31 - 1
 _MAX_STAMP_NS = (INT32_MAX + 1) * NS_PER_S - 1     # the last stamp whose seconds fit in int32
 FIELDS = ('position', 'velocity', 'effort')

@@ -68,13 +68,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
+from robot_control import units
 from robot_control.ros import cdr, conversions, spin
 from robot_control.core.controller import ControllerCore
 from robot_control.ros.params import ControllerParameters, ParameterError
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.ros.throttle import Throttle
 
-NS = conversions.NS_PER_S
+NS = units.NS_PER_S
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
 #: s of wall time a state waits for the wrench of its own tick (paired streams only, see _take_wrenches)
@@ -147,7 +148,7 @@ class ControllerNode(Node):
         self._tripped = False
         self.trips = 0
         self.rejected = dict.fromkeys(INPUTS, 0)
-        self._warn_throttle = Throttle(WARN_THROTTLE * 1e9)
+        self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
         self.last_rejection = ''
         self.commands_sent = 0
         self.trajectories_accepted = 0
@@ -259,7 +260,7 @@ class ControllerNode(Node):
             return
         last = self._last_stamp_ns
         if (last is not None and not self._tripped and self._core.active
-                and abs(stamp_ns - last) > self._state_timeout * 1e9):
+                and abs(stamp_ns - last) > self._state_timeout * NS):
             self._reject('joint_states', f'header.stamp: {(stamp_ns - last) * 1e-9:+.6g} s from the previous state, '
                                          f'more than state_timeout {self._state_timeout:g} s (a clock reset restarts '
                                          'the controller once the watchdog trips)')

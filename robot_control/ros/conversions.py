@@ -25,9 +25,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from robot_control import validation
+from robot_control import units, validation
+from robot_control.units import NS_PER_S
 
-NS_PER_S = 1_000_000_000
 #: largest magnitude accepted in a measurement or reference (rad, m, rad/s, m/s, N, ...): beyond it a
 #: value is not physical but a corrupted message, and would overflow the laws or the error integral
 MAX_ABS = 1e6
@@ -50,7 +50,7 @@ WRENCH_AXES = ('x', 'y', 'z')
 # -- time --------------------------------------------------------------------------------------
 def stamp_to_ns(stamp):
     """builtin_interfaces/Time (or Duration) -> integer nanoseconds."""
-    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+    return units.stamp_ns(int(stamp.sec), int(stamp.nanosec))
 
 
 def ns_to_stamp(ns, out=None):
@@ -59,7 +59,7 @@ def ns_to_stamp(ns, out=None):
     if ns < 0:
         raise ValueError(f'ns: expected a non-negative time, got {ns}')
     out = Time() if out is None else out
-    out.sec, out.nanosec = divmod(ns, NS_PER_S)
+    out.sec, out.nanosec = units.split_ns(ns)
     return out
 
 
@@ -71,8 +71,7 @@ def duration_to_s(duration):
 def s_to_duration(seconds):
     """Float seconds -> builtin_interfaces/Duration rounded to the nanosecond."""
     seconds = validation.scalar('seconds', seconds)
-    ns = int(round(seconds * NS_PER_S))
-    sec, nanosec = divmod(ns, NS_PER_S)
+    sec, nanosec = units.split_ns(units.to_ns(seconds))
     return Duration(sec=sec, nanosec=nanosec)
 
 

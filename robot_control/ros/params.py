@@ -30,7 +30,7 @@ from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValu
 from rclpy.parameter import Parameter
 
 from robot_control import gains as gain_design
-from robot_control import scenarios, validation
+from robot_control import scenarios, units, validation
 from robot_control.core.controller import FORCE_FEEDBACK, JOINT_LAWS, LAWS, ControllerConfig
 from robot_control.gains import ServoGains
 from robot_control.models import CLOSED_FORM, make_model
@@ -97,7 +97,7 @@ def model_param_specs(model, defaults=None):
     """Specs of model_params.* for `model` (closed-form name or 'urdf'), defaults overridden by `defaults`."""
     defaults = defaults or {}
     if model == 'urdf':
-        g = float(defaults.get('gravity', 9.81))
+        g = float(defaults.get('gravity', units.GRAVITY))
         return [Spec('model_params.gravity', T.DOUBLE, g, 'gravitational acceleration along world -z, m/s^2',
                      '>= 0')]
     try:
@@ -105,14 +105,14 @@ def model_param_specs(model, defaults=None):
     except KeyError:
         raise ParameterError('model', f"unknown {model!r}; expected 'urdf' or one of {sorted(CLOSED_FORM)}") from None
     specs = []
-    units = {'m': 'kg', 'm1': 'kg', 'm2': 'kg', 'm3': 'kg', 'l': 'm', 'l1': 'm', 'l2': 'm',
-             'b': 'N s/m (viscous friction)', 'k': 'N/m^3 (cubic spring)', 'gravity': 'm/s^2'}
+    unit_of = {'m': 'kg', 'm1': 'kg', 'm2': 'kg', 'm3': 'kg', 'l': 'm', 'l1': 'm', 'l2': 'm',
+               'b': 'N s/m (viscous friction)', 'k': 'N/m^3 (cubic spring)', 'gravity': 'm/s^2'}
     for p in inspect.signature(cls.__init__).parameters.values():
         if p.name == 'self':
             continue
         value = float(defaults.get(p.name, p.default))
         specs.append(Spec(f'model_params.{p.name}', T.DOUBLE, value,
-                          f'{model} model parameter {p.name}, {units.get(p.name, "SI")}',
+                          f'{model} model parameter {p.name}, {unit_of.get(p.name, "SI")}',
                           '>= 0' if p.name in ('b', 'k', 'gravity') else '> 0'))
     return specs
 

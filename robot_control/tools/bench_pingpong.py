@@ -19,10 +19,11 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from robot_control import units
 from robot_control.ros import spin
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS
 
-NS = 1_000_000_000
+NS = units.NS_PER_S
 REPUBLISH_S = 0.1
 
 

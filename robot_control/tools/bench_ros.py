@@ -30,10 +30,11 @@ import time
 
 import numpy as np
 
+from robot_control import units
 from robot_control import scenarios
 from robot_control.tools.demo_procs import die_with_parent
 
-NS = 1_000_000_000
+NS = units.NS_PER_S
 PERIOD_NS = 1_000_000                 # control period of every DDS run, 1 ms
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 STOP_GRACE_S = 2.0                    # SIGTERM -> SIGKILL

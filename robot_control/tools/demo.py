@@ -39,11 +39,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from robot_control import units
 from robot_control.tools import demo_experiments as experiments
 from robot_control.tools import demo_procs as procs
 from robot_control import scenarios
 
-NS = 1_000_000_000
+NS = units.NS_PER_S
 ROOT = Path(__file__).resolve().parents[2]
 #: extra arguments of sim_bridge_node before --ros-args (e.g. ('--executor', 'single'))
 BRIDGE_ARGS = ()

@@ -367,7 +367,7 @@ def test_resolve_urdf():
     assert resolve_urdf('polar_two_link') == os.path.join(URDF_DIR, 'polar_two_link.urdf')
     assert resolve_urdf('polar_two_link.urdf') == os.path.join(URDF_DIR, 'polar_two_link.urdf')
     assert resolve_urdf(IIWA).endswith(os.path.join('pybullet_data', 'kuka_iiwa', 'model.urdf'))
-    with pytest.raises(ValueError, match='^name:'):
+    with pytest.raises(ValueError, match='^urdf:'):
         resolve_urdf('no_such_robot.urdf')
 
 
