@@ -26,17 +26,18 @@ import sys
 
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import validation
 
 RULE_ZETA = 'zeta >= 1 (the lecture: no underdamped response, for safety)'
 RULE_RESONANCE = 'omega_n <= 0.5 omega_res (the lecture: do not excite the structural resonance)'
 
 
-class GainRuleError(ValueError):
-    """A design breaks one of the lecture's rules; `rule` holds the rule as text."""
+class GainRuleError(ArgumentError):
+    """A design breaks one of the lecture's rules: `name` is the gain parameter, `rule` the rule as text."""
 
-    def __init__(self, message, rule):
-        super().__init__(message)
+    def __init__(self, name, reason, rule):
+        super().__init__(name, reason)
         self.rule = rule
 
 
@@ -44,7 +45,7 @@ def _gain_vector(name, value, n):
     """`value` as a read-only finite non-negative (n,) array, or ValueError naming `name`."""
     a = validation.vector(name, value, n).copy()
     if np.any(a < 0.0):
-        raise ValueError(f'{name}: expected non-negative gains, got {a.tolist()}')
+        raise ArgumentError(name, f'expected non-negative gains, got {a.tolist()}')
     a.flags.writeable = False
     return a
 
@@ -77,7 +78,7 @@ class ServoGains:
     def uniform(cls, n, kp, kv, ki=0.0):
         """The same scalar kp, kv, ki on each of n joints."""
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ValueError(f'n: expected a positive integer, got {n!r}')
+            raise ArgumentError('n', f'expected a positive integer, got {n!r}')
         scalars = [validation.scalar(name, value) for name, value in (('kp', kp), ('kv', kv), ('ki', ki))]
         return cls(*(np.full(int(n), x) for x in scalars))
 
@@ -118,10 +119,10 @@ def _optional_positive(name, value):
 def _check_rules(zeta, omega_n, omega_res, allow_underdamped, allow_resonance):
     """Raise GainRuleError if zeta < 1 or omega_n > 0.5 omega_res, unless allowed."""
     if zeta < 1.0 and not allow_underdamped:
-        raise GainRuleError(f'zeta: {zeta:g} breaks the rule {RULE_ZETA}; '
+        raise GainRuleError('zeta', f'{zeta:g} breaks the rule {RULE_ZETA}; '
                             'override: allow_underdamped=True (CLI --allow-underdamped)', RULE_ZETA)
     if omega_res is not None and omega_n > 0.5 * omega_res and not allow_resonance:
-        raise GainRuleError(f'omega_n: {omega_n:g} rad/s > 0.5 * {omega_res:g} rad/s breaks the rule '
+        raise GainRuleError('omega_n', f'{omega_n:g} rad/s > 0.5 * {omega_res:g} rad/s breaks the rule '
                             f'{RULE_RESONANCE}; override: allow_resonance=True (CLI --allow-resonance)', RULE_RESONANCE)
 
 
@@ -146,7 +147,7 @@ def design(zeta=1.0, omega_res=None, omega_n=None, integral=False,
     omega_n = _optional_positive('omega_n', omega_n)
     if omega_n is None:
         if omega_res is None:
-            raise ValueError('omega_n: give omega_n or omega_res (then omega_n = 0.5 omega_res)')
+            raise ArgumentError('omega_n', 'give omega_n or omega_res (then omega_n = 0.5 omega_res)')
         omega_n = 0.5 * omega_res
     _check_rules(zeta, omega_n, omega_res, allow_underdamped, allow_resonance)
     if integral:
@@ -161,10 +162,10 @@ def _finite_array(name, value, positive=False):
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name}: expected numbers, got {value!r}') from exc
+        raise ArgumentError(name, f'expected numbers, got {value!r}') from exc
     if not np.all(np.isfinite(a)) or (positive and not np.all(a > 0.0)):
         kind = 'positive' if positive else 'finite'
-        raise ValueError(f'{name}: expected {kind} values, got {a.tolist()}')
+        raise ArgumentError(name, f'expected {kind} values, got {a.tolist()}')
     return a
 
 

@@ -5,6 +5,7 @@ configuration. The simulator may be given other physical parameters than the con
 model-error payload); both start from these defaults.
 """
 from dataclasses import dataclass, field
+from robot_control.validation import ArgumentError
 
 
 @dataclass(frozen=True)
@@ -67,4 +68,4 @@ def get(name):
     try:
         return SCENARIOS[name]
     except KeyError:
-        raise ValueError(f'scenario: unknown {name!r}; expected one of {sorted(SCENARIOS)}') from None
+        raise ArgumentError('scenario', f'unknown {name!r}; expected one of {sorted(SCENARIOS)}') from None

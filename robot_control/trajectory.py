@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import validation
 
 PROFILES = ('quintic', 'cubic', 'trapezoid')
@@ -86,7 +87,7 @@ class Trajectory:
         Not thread-safe (one scratch buffer per trajectory). Returns (q_out, qd_out, qdd_out).
         """
         if not math.isfinite(t):
-            raise ValueError(f't: expected a finite time, got {t}')
+            raise ArgumentError('t', f'expected a finite time, got {t}')
         if t < self._knots[0] or t >= self._knots[-1]:
             state = self._before if t < self._knots[0] else self._last if t == self._knots[-1] else self._rest
             q_out[:], qd_out[:], qdd_out[:] = state[0], state[1], state[2]
@@ -138,7 +139,7 @@ def _limit(name, value, n):
     if a.shape[0] == 1:
         a = np.full(n, a[0])
     if a.shape[0] != n or not np.all(a > 0.0):
-        raise ValueError(f'{name}: expected a positive number or {n} positive numbers, got {a.tolist()}')
+        raise ArgumentError(name, f'expected a positive number or {n} positive numbers, got {a.tolist()}')
     return a
 
 
@@ -146,11 +147,11 @@ def _times(times):
     """time_from_start of each point: (K,), K >= 1, strictly increasing, > 0."""
     tf = validation.vector('times', times)
     if tf.shape[0] == 0:
-        raise ValueError('times: expected at least one point')
+        raise ArgumentError('times', 'expected at least one point')
     if not tf[0] > 0.0:
-        raise ValueError(f'times: expected time_from_start > 0 (the start is the point at t0), got {tf.tolist()}')
+        raise ArgumentError('times', f'expected time_from_start > 0 (the start is the point at t0), got {tf.tolist()}')
     if not np.all(np.diff(tf) > 0.0):
-        raise ValueError(f'times: expected strictly increasing values, got {tf.tolist()}')
+        raise ArgumentError('times', f'expected strictly increasing values, got {tf.tolist()}')
     return tf
 
 
@@ -159,9 +160,9 @@ def _points(name, value, count, n):
     try:
         rows = list(value)
     except TypeError as exc:
-        raise ValueError(f'{name}: expected a sequence of points, got {value!r}') from exc
+        raise ArgumentError(name, f'expected a sequence of points, got {value!r}') from exc
     if len(rows) != count:
-        raise ValueError(f'{name}: expected {count} points (one per time), got {len(rows)}')
+        raise ArgumentError(name, f'expected {count} points (one per time), got {len(rows)}')
     return np.array([validation.vector(f'{name}[{i}]', p, n) for i, p in enumerate(rows)]).reshape(count, n)
 
 
@@ -170,9 +171,9 @@ def _start(start):
     try:
         parts = list(start)
     except TypeError as exc:
-        raise ValueError(f'start: expected (q, qd, qdd), got {start!r}') from exc
+        raise ArgumentError('start', f'expected (q, qd, qdd), got {start!r}') from exc
     if len(parts) != 3:
-        raise ValueError(f'start: expected (q, qd, qdd), got {len(parts)} items')
+        raise ArgumentError('start', f'expected (q, qd, qdd), got {len(parts)} items')
     q = validation.vector('start.q', parts[0])
     n = q.shape[0]
     qd, qdd = (np.zeros(n) if p is None else validation.vector(f'start.{k}', p, n)
@@ -193,10 +194,10 @@ def _polynomial_duration(profile, delta, T, v_max, a_max):
         need = max(need, float(np.max(np.sqrt(b * dist / a_max))))
     if T is None:
         if v_max is None and a_max is None:
-            raise ValueError('T: give a duration T or the limits v_max/a_max')
+            raise ArgumentError('T', 'give a duration T or the limits v_max/a_max')
         return need
     if T < need * (1.0 - _RTOL):
-        raise ValueError(f'T: {T:g} s is shorter than the {need:g} s that v_max/a_max allow for this {profile} move')
+        raise ArgumentError('T', f'{T:g} s is shorter than the {need:g} s that v_max/a_max allow for this {profile} move')
     return T
 
 
@@ -222,17 +223,17 @@ def _trapezoid_timing(T, V_lim, A_lim):
         tb, A = T / 3.0, 4.5 / T ** 2
     else:  # the shortest blend a_max allows
         if A_lim * T * T < 4.0 * (1.0 - _RTOL):
-            raise ValueError(f'T: {T:g} s is too short for a_max (needs T >= {2.0 / math.sqrt(A_lim):g} s)')
+            raise ArgumentError('T', f'{T:g} s is too short for a_max (needs T >= {2.0 / math.sqrt(A_lim):g} s)')
         tb, A = 0.5 * T - 0.5 * math.sqrt(max(T * T - 4.0 / A_lim, 0.0)), A_lim
     if A * tb > V_lim * (1.0 + _RTOL):
-        raise ValueError(f'T: {T:g} s needs a peak velocity above v_max')
+        raise ArgumentError('T', f'{T:g} s needs a peak velocity above v_max')
     return T, tb, A
 
 
 def _trapezoid(q0, delta, T, t0, v_max, a_max):
     """Trapezoidal velocity along q0 + s (q1 - q0): accelerate at A for tb, cruise, decelerate at A for tb."""
     if T is None and a_max is None:
-        raise ValueError('a_max: the trapezoid needs a_max (and v_max), or a duration T')
+        raise ArgumentError('a_max', 'the trapezoid needs a_max (and v_max), or a duration T')
     V_lim, A_lim = _path_limits(delta, v_max, a_max)
     if T is None and math.isinf(A_lim):
         return hold(q0, t0)
@@ -265,7 +266,7 @@ def point_to_point(q0, q1, T=None, profile='quintic', t0=0.0, *, v_max=None, a_m
     t0 = validation.scalar('t0', t0)
     T = None if T is None else validation.scalar('T', T, positive=True)
     if profile not in PROFILES:
-        raise ValueError(f'profile: expected one of {PROFILES}, got {profile!r}')
+        raise ArgumentError('profile', f'expected one of {PROFILES}, got {profile!r}')
     v_max, a_max = _limit('v_max', v_max, n), _limit('a_max', a_max, n)
     if profile == 'trapezoid':
         return _trapezoid(q0, q1 - q0, T, t0, v_max, a_max)
@@ -347,10 +348,10 @@ def from_points(t0, start, times, positions, velocities=None, accelerations=None
     tf = _times(times)
     K = tf.shape[0]
     if accelerations is not None and velocities is None:
-        raise ValueError('accelerations: given without velocities')
+        raise ArgumentError('accelerations', 'given without velocities')
     knots = np.concatenate([[t0], t0 + tf])
     if not np.all(np.diff(knots) > 0.0):
-        raise ValueError(f'times: points closer than the resolution of t0 = {t0!r}')
+        raise ArgumentError('times', f'points closer than the resolution of t0 = {t0!r}')
     Q = np.vstack([q0, _points('positions', positions, K, n)])
     zero = np.zeros(n)
     if velocities is None:

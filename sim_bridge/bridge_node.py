@@ -73,6 +73,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
+from robot_control.validation import ArgumentError
 from robot_control import units
 from robot_control.ros import cdr, conversions, spin
 from robot_control import scenarios
@@ -239,7 +240,7 @@ class SimBridge(Node):
             known = set(self._parameters)
             unknown = sorted(set(self._parameter_overrides) - known)
             if unknown:
-                raise ValueError(f'{unknown[0]}: unknown parameter of {self.get_name()} '
+                raise ArgumentError(unknown[0], f'unknown parameter of {self.get_name()} '
                                  f'(known: {sorted(self._values)})')
             return bridge_params.validate(self._values)
         except BridgeParameterError:

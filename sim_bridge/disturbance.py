@@ -7,6 +7,7 @@ so the lecture's d is joint_torque = -d.
 """
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import validation
 
 KEYS = ('joint_torque', 'cartesian_force')
@@ -21,7 +22,7 @@ class Disturbance:
         self.cartesian_force = (np.zeros(3) if cartesian_force is None
                                 else validation.vector('cartesian_force', cartesian_force, 3))
         if not has_tip and np.any(self.cartesian_force != 0.0):
-            raise ValueError('cartesian_force: this robot has no tip link to apply it at')
+            raise ArgumentError('cartesian_force', 'this robot has no tip link to apply it at')
         self.joint_torque.setflags(write=False)
         self.cartesian_force.setflags(write=False)
         #: True when a non-zero joint torque / Cartesian force is set (fixed: the object is immutable)
@@ -36,8 +37,8 @@ class Disturbance:
         if isinstance(config, Disturbance):
             return cls(n, config.joint_torque, config.cartesian_force, has_tip)
         if not hasattr(config, 'keys'):
-            raise ValueError(f'disturbance: expected None or a mapping with keys {list(KEYS)}, got {config!r}')
+            raise ArgumentError('disturbance', f'expected None or a mapping with keys {list(KEYS)}, got {config!r}')
         unknown = sorted(set(config) - set(KEYS))
         if unknown:
-            raise ValueError(f'disturbance: unknown keys {unknown}; expected some of {list(KEYS)}')
+            raise ArgumentError('disturbance', f'unknown keys {unknown}; expected some of {list(KEYS)}')
         return cls(n, config.get('joint_torque'), config.get('cartesian_force'), has_tip)

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import units
 
 _F64 = np.dtype(np.float64)
@@ -31,7 +32,7 @@ class RealtimePacer:
 
     def __init__(self, tick_ns, real_time_factor=1.0, max_lag_ns=100_000_000):
         if int(tick_ns) <= 0:
-            raise ValueError(f'tick_ns: expected a positive integer, got {tick_ns}')
+            raise ArgumentError('tick_ns', f'expected a positive integer, got {tick_ns}')
         self.tick_ns = int(tick_ns)
         self.max_lag_ns = int(max_lag_ns)
         self.overruns = 0
@@ -48,7 +49,7 @@ class RealtimePacer:
         """Change the factor; re-anchors at (wall_ns, ticks_done) when given so no tick is lost."""
         rtf = float(rtf)
         if not (math.isfinite(rtf) and rtf > 0.0):
-            raise ValueError(f'real_time_factor: expected a positive number, got {rtf}')
+            raise ArgumentError('real_time_factor', f'expected a positive number, got {rtf}')
         self._rtf = rtf
         self._wall_per_tick = self.tick_ns / rtf
         if wall_ns is not None:

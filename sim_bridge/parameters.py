@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import scenarios, units, validation
 
 MODES = ('realtime', 'lockstep')
@@ -179,7 +180,7 @@ class BridgeConfig:
 def _finite(name, value, *, positive=False, nonnegative=False):
     """validation.scalar for a parameter value, which must be a number (not a bool or a string)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f'{name}: expected a number, got {value!r}')
+        raise ArgumentError(name, f'expected a number, got {value!r}')
     return validation.scalar(name, value, positive=positive, nonnegative=nonnegative)
 
 
@@ -187,57 +188,57 @@ def _array(name, value, n):
     try:
         a = np.array(list(value), dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f'{name}: expected a list of numbers, got {value!r}') from None
+        raise ArgumentError(name, f'expected a list of numbers, got {value!r}') from None
     if a.size == 0:
         return np.zeros(n)
     if a.shape != (n,):
-        raise ValueError(f'{name}: expected {n} values, got {a.size}')
+        raise ArgumentError(name, f'expected {n} values, got {a.size}')
     if not np.all(np.isfinite(a)):
-        raise ValueError(f'{name}: expected finite values, got {a.tolist()}')
+        raise ArgumentError(name, f'expected finite values, got {a.tolist()}')
     return a
 
 
 def _whole_ns(name, seconds):
     ns = units.to_ns(seconds)
     if ns < 1 or abs(seconds * units.NS_PER_S - ns) > 1e-3:
-        raise ValueError(f'{name}: expected whole nanoseconds, got {seconds!r} s')
+        raise ArgumentError(name, f'expected whole nanoseconds, got {seconds!r} s')
     return int(ns)
 
 
 def check_scenario(value):
     """Phase-1 check of `scenario` (so an unknown one is reported before anything else)."""
     if not isinstance(value, str):
-        raise ValueError(f'scenario: expected a string, got {value!r}')
+        raise ArgumentError('scenario', f'expected a string, got {value!r}')
     if value and value not in scenarios.SCENARIOS:
-        raise ValueError(f'scenario: unknown {value!r}; expected one of {sorted(scenarios.SCENARIOS)} '
+        raise ArgumentError('scenario', f'unknown {value!r}; expected one of {sorted(scenarios.SCENARIOS)} '
                          "or '' with urdf and joints")
     return value
 
 
 def check_urdf(value, scenario):
     if not isinstance(value, str):
-        raise ValueError(f'urdf: expected a string, got {value!r}')
+        raise ArgumentError('urdf', f'expected a string, got {value!r}')
     if not value:
         if not scenario:
-            raise ValueError("urdf: required when scenario is '' (a custom robot)")
+            raise ArgumentError("urdf", "required when scenario is '' (a custom robot)")
         return ''
     from robot_control import urdf as urdf_files
     try:
         return urdf_files.resolve(value)
     except ValueError:
-        raise ValueError(f'urdf: no such file {value!r} (nor shipped nor in pybullet_data)') from None
+        raise ArgumentError('urdf', f'no such file {value!r} (nor shipped nor in pybullet_data)') from None
 
 
 def check_joints(value):
     if value is None:
-        raise ValueError("joints: required when scenario is '' (a custom robot)")
+        raise ArgumentError("joints", "required when scenario is '' (a custom robot)")
     got = list(value)
     if not got:
-        raise ValueError('joints: expected at least one joint name')
+        raise ArgumentError('joints', 'expected at least one joint name')
     if not all(isinstance(s, str) and s for s in got):
-        raise ValueError(f'joints: expected non-empty strings, got {got}')
+        raise ArgumentError('joints', f'expected non-empty strings, got {got}')
     if len(set(got)) != len(got):
-        raise ValueError(f'joints: duplicate names in {got}')
+        raise ArgumentError('joints', f'duplicate names in {got}')
     return tuple(got)
 
 
@@ -249,41 +250,41 @@ def validate(values):
     joints = check_joints(v['joints'])
     sc = _scenario_or_none(scenario)
     if sc is not None and not urdf and set(joints) != set(sc.joints):
-        raise ValueError(f'joints: scenario {scenario!r} has joints {list(sc.joints)}, got {list(joints)}')
+        raise ArgumentError('joints', f'scenario {scenario!r} has joints {list(sc.joints)}, got {list(joints)}')
     n = len(joints)
     if not len(v['initial_positions']):
-        raise ValueError(f'initial_positions: expected {n} values, got 0')
+        raise ArgumentError('initial_positions', f'expected {n} values, got 0')
     q0 = _array('initial_positions', v['initial_positions'], n)
     mode = v['mode']
     if mode not in MODES:
-        raise ValueError(f'mode: expected one of {list(MODES)}, got {mode!r}')
+        raise ArgumentError('mode', f'expected one of {list(MODES)}, got {mode!r}')
     physics_step = _finite('physics_step', v['physics_step'], positive=True)
     if physics_step > 0.1:
-        raise ValueError(f'physics_step: expected at most 0.1 s, got {physics_step}')
+        raise ArgumentError('physics_step', f'expected at most 0.1 s, got {physics_step}')
     physics_ns = _whole_ns('physics_step', physics_step)
     control_period = _finite('control_period', v['control_period'], positive=True)
     control_ns = _whole_ns('control_period', control_period)
     if control_ns % physics_ns:
-        raise ValueError(f'control_period: expected an integer multiple of physics_step {physics_step} s, '
+        raise ArgumentError('control_period', f'expected an integer multiple of physics_step {physics_step} s, '
                          f'got {control_period} s')
     clock_period = _finite('clock_period', v['clock_period'], nonnegative=True)
     clock_ns = _whole_ns('clock_period', clock_period) if clock_period else 0
     rtf = _finite('real_time_factor', v['real_time_factor'], positive=True)
     timeout = _finite('command_timeout', v['command_timeout'], positive=True)
     if timeout <= control_period:
-        raise ValueError(f'command_timeout: expected more than control_period {control_period} s, '
+        raise ArgumentError('command_timeout', f'expected more than control_period {control_period} s, '
                          f'got {timeout} s')
     lockstep_timeout = _finite('lockstep_timeout', v['lockstep_timeout'], positive=True)
     surface_enable = v['surface.enable']
     if not isinstance(surface_enable, bool):
-        raise ValueError(f'surface.enable: expected a bool, got {surface_enable!r}')
+        raise ArgumentError('surface.enable', f'expected a bool, got {surface_enable!r}')
     k_e = _finite('surface.k_e', v['surface.k_e'], nonnegative=True)
     x_e = _finite('surface.x_e', v['surface.x_e'])
     if surface_enable:
         if sc is None or sc.surface is None:
-            raise ValueError(f'surface.enable: scenario {scenario!r} has no surface')
+            raise ArgumentError('surface.enable', f'scenario {scenario!r} has no surface')
         if not k_e > 0.0:
-            raise ValueError(f'surface.k_e: expected a positive stiffness (N/m), got {k_e}')
+            raise ArgumentError('surface.k_e', f'expected a positive stiffness (N/m), got {k_e}')
     dist_tau = _array('disturbance.joint_torque', v['disturbance.joint_torque'], n)
     dist_f = _array('disturbance.cartesian_force', v['disturbance.cartesian_force'], 3)
     sim_params = {}
@@ -294,11 +295,11 @@ def validate(values):
             sim_params[name] = _finite(key, value, positive=not nonneg, nonnegative=nonneg)
     frame = v['wrench_frame_id']
     if not isinstance(frame, str) or not frame:
-        raise ValueError(f'wrench_frame_id: expected a non-empty frame name, got {frame!r}')
+        raise ArgumentError('wrench_frame_id', f'expected a non-empty frame name, got {frame!r}')
     diag = _finite('diagnostics_period', v['diagnostics_period'], positive=True)
     gui = v['gui']
     if not isinstance(gui, bool):
-        raise ValueError(f'gui: expected a bool, got {gui!r}')
+        raise ArgumentError('gui', f'expected a bool, got {gui!r}')
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=joints, initial_positions=q0, mode=mode,
         physics_step=physics_step, control_period=control_period, physics_step_ns=physics_ns,

@@ -16,6 +16,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pybullet as p
 
+from robot_control.validation import ArgumentError
 from robot_control import validation
 from robot_control.scenarios import Surface
 
@@ -39,7 +40,7 @@ def surface_normal(task_axes, axis, closed_form):
     vertical y is world z for the planar (2-D) task spaces; 3-D task spaces are the world's.
     """
     if not 0 <= axis < len(task_axes):
-        raise ValueError(f'surface: axis {axis} is not a task axis of {list(task_axes)}')
+        raise ArgumentError('surface', f'axis {axis} is not a task axis of {list(task_axes)}')
     name = task_axes[axis]
     if closed_form and len(task_axes) == 2 and name == 'y':
         name = 'z'
@@ -51,11 +52,11 @@ def surface_normal(task_axes, axis, closed_form):
 def check_surface(surface):
     """`surface` as a Surface with a finite x_e, positive k_e and sign +-1, or ValueError."""
     if not isinstance(surface, Surface):
-        raise ValueError(f'surface: expected True, False or a Surface, got {surface!r}')
+        raise ArgumentError('surface', f'expected True, False or a Surface, got {surface!r}')
     validation.scalar('surface.x_e', surface.x_e)
     validation.scalar('surface.k_e', surface.k_e, positive=True)
     if surface.sign not in (1.0, -1.0):
-        raise ValueError(f'surface.sign: expected +1 or -1, got {surface.sign}')
+        raise ArgumentError('surface.sign', f'expected +1 or -1, got {surface.sign}')
     return surface
 
 
@@ -70,7 +71,7 @@ def probe_urdf(path, tip, out_dir, radius=PROBE_RADIUS):
             mesh.set('filename', os.path.join(base, name))
     links = [ln for ln in tree.getroot().iter('link') if ln.get('name') == tip]
     if not links:
-        raise ValueError(f'tip: no link {tip!r} in {path}')
+        raise ArgumentError('tip', f'no link {tip!r} in {path}')
     for old in links[0].findall('collision'):
         links[0].remove(old)
     collision = ET.SubElement(links[0], 'collision')
@@ -86,12 +87,12 @@ def tip_radius(client, body, tip_link):
     """Radius (m) of the tip link's single collision sphere, or ValueError."""
     shapes = p.getCollisionShapeData(body, tip_link, physicsClientId=client)
     if len(shapes) != 1 or shapes[0][2] != p.GEOM_SPHERE:
-        raise ValueError('surface: the tip link must collide through one sphere at its origin')
+        raise ArgumentError('surface', 'the tip link must collide through one sphere at its origin')
     # PyBullet reports the shape's frame relative to the link's inertial frame
     com, orn = p.getDynamicsInfo(body, tip_link, physicsClientId=client)[3:5]
     centre, _ = p.multiplyTransforms(com, orn, shapes[0][5], shapes[0][6])
     if np.linalg.norm(centre) > 1e-9:
-        raise ValueError(f'surface: the tip link\'s collision sphere is at {centre}, not at the link origin')
+        raise ArgumentError('surface', 'the tip link\'s collision sphere is at {centre}, not at the link origin')
     return float(shapes[0][3][0])
 
 

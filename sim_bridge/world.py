@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from robot_control.validation import ArgumentError
 from robot_control import scenarios, units, validation
 from robot_control import urdf as urdf_files
 from robot_control.models import make_model, urdf_gen
@@ -52,25 +53,25 @@ def _scenario(scenario):
         return scenario
     if isinstance(scenario, str):
         return scenarios.get(scenario)
-    raise ValueError(f'scenario: expected a name, a Scenario or None, got {scenario!r}')
+    raise ArgumentError('scenario', f'expected a name, a Scenario or None, got {scenario!r}')
 
 
 def _truth(sc, params):
     """(physical parameters, closed-form model or None, gravity m/s^2) of the simulated robot."""
     if params is not None and not hasattr(params, 'keys'):
-        raise ValueError(f'params: expected a mapping of physical parameters, got {params!r}')
+        raise ArgumentError('params', f'expected a mapping of physical parameters, got {params!r}')
     params = dict(params or {})
     base = dict(sc.params) if sc is not None else {}
     truth, model = {**base, **params}, None
     if sc is None or sc.model == 'urdf':
         unknown = sorted(set(params) - {'gravity'})
         if unknown:
-            raise ValueError(f'params: unknown {unknown} for a URDF robot; only gravity can be set')
+            raise ArgumentError('params', f'unknown {unknown} for a URDF robot; only gravity can be set')
     else:
         try:
             model = make_model(sc.model, **truth)
         except ValueError as exc:
-            raise ValueError(f'params: {exc}') from None
+            raise ArgumentError('params', f'{exc}') from None
     gravity = validation.scalar('params.gravity', truth.get('gravity', units.GRAVITY), nonnegative=True)
     return truth, model, gravity
 
@@ -90,16 +91,16 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir
     if urdf is not None:
         path = urdf_files.resolve(urdf)
     elif sc is None:
-        raise ValueError('urdf: required when scenario is None')
+        raise ArgumentError('urdf', 'required when scenario is None')
     elif closed_form and truth != dict(sc.params):
         path = urdf_gen.write_urdf(os.path.join(tmpdir, f'{sc.model}.urdf'), sc.model, **truth)
     else:
         path = urdf_files.resolve(sc.urdf or sc.model)
     if joints is None and sc is None:
-        raise ValueError('joints: required when scenario is None')
+        raise ArgumentError('joints', 'required when scenario is None')
     joints = validation.names('joints', sc.joints if joints is None else joints)
     if not joints:
-        raise ValueError('joints: expected at least one joint')
+        raise ArgumentError('joints', 'expected at least one joint')
     start = q0 if q0 is not None else (sc.q0 if sc is not None else np.zeros(len(joints)))
     q0 = validation.vector('q0', start, len(joints))
     if tip is None and sc is not None:
@@ -107,7 +108,7 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir
     task_axes = model.task_axes if closed_form else ('x', 'y', 'z')
     wall = _surface(sc, surface)
     if wall is not None and tip is None:
-        raise ValueError('surface: needs a tip link (tip=...)')
+        raise ArgumentError('surface', 'needs a tip link (tip=...)')
     if wall is not None and not closed_form:
         path = surfaces.probe_urdf(path, tip, tmpdir)
     spring = (model.k, model.b) if closed_form and sc.model == 'mass_spring_cubic' else None
@@ -152,7 +153,7 @@ class World:
         dt = validation.scalar('dt', dt, positive=True)
         dt_ns = round(dt * 1e9)
         if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
-            raise ValueError(f'dt: expected a whole number of nanoseconds, got {dt} s')
+            raise ArgumentError('dt', f'expected a whole number of nanoseconds, got {dt} s')
         return dt_ns
 
     # -- properties ----------------------------------------------------------------------------
@@ -218,7 +219,7 @@ class World:
             self._body = p.loadURDF(spec.urdf, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
                                     physicsClientId=c)
         except p.error as exc:
-            raise ValueError(f'urdf: PyBullet cannot load {spec.urdf}: {exc}') from None
+            raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
         self._index_joints()
         self._zero_damping()
         self._hold_other_joints()
@@ -245,7 +246,7 @@ class World:
                 travel[j] = (info[8], info[9])
         unknown = [name for name in self._spec.joints if name not in movable]
         if unknown:
-            raise ValueError(f'joints: unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+            raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
         self._idx = [movable[name] for name in self._spec.joints]
         self._travel = [travel[j] for j in self._idx]
         self._others = [j for j in movable.values() if j not in self._idx]
@@ -255,14 +256,14 @@ class World:
         self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
         tip = self._spec.tip
         if tip is not None and tip not in links:
-            raise ValueError(f'tip: unknown link {tip!r}; the URDF\'s links are {list(links)}')
+            raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
         self._tip = links.get(tip) if tip is not None else None
 
     def _check_travel(self, q0):
         """q0 inside the URDF position limits (PyBullet enforces them: lower <= upper), or ValueError."""
         for name, q, (lower, upper) in zip(self._spec.joints, q0, self._travel):
             if lower <= upper and not lower <= q <= upper:
-                raise ValueError(f'q0: {name} = {q} is outside the URDF limits [{lower}, {upper}]')
+                raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
 
     def _zero_damping(self):
         for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
@@ -373,7 +374,7 @@ class World:
     def step(self, k=1):
         """Advance k physics steps of dt with the held torque (re-sent before every step)."""
         if type(k) is not int and (isinstance(k, bool) or not isinstance(k, np.integer)) or k < 1:
-            raise ValueError(f'k: expected a positive integer number of steps, got {k!r}')
+            raise ArgumentError('k', f'expected a positive integer number of steps, got {k!r}')
         for _ in range(int(k)):
             self._apply_loads()
             p.stepSimulation(physicsClientId=self._client)
@@ -417,7 +418,7 @@ class World:
     def tip_position(self):
         """World position of the tip frame origin, m, (3,)."""
         if self._tip is None:
-            raise ValueError('tip: this world has no tip link')
+            raise ArgumentError('tip', 'this world has no tip link')
         link = p.getLinkState(self._body, self._tip, computeForwardKinematics=True, physicsClientId=self._client)
         return np.array(link[4])
 

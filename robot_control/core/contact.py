@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import validation
 
 
@@ -44,7 +45,7 @@ class ContactGuard:
         k = len(self.names)
         self.k_e = validation.vector('k_e', k_e, k)
         if np.any(self.k_e <= 0.0):
-            raise ValueError(f'k_e: expected positive stiffness (N/m), got {self.k_e.tolist()}')
+            raise ArgumentError('k_e', f'expected positive stiffness (N/m), got {self.k_e.tolist()}')
         self.x_e = validation.vector('x_e', x_e, k)
         self.max_travel = _bound('max_travel', max_travel)
         self.max_speed = _bound('max_speed', max_speed)
@@ -123,7 +124,7 @@ def _bound(name, value):
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f'{name}: expected a number, got {value!r}') from None
+        raise ArgumentError(name, f'expected a number, got {value!r}') from None
     if not x > 0.0:  # also rejects NaN
-        raise ValueError(f'{name}: expected a positive bound (m or m/s; inf = none), got {value!r}')
+        raise ArgumentError(name, f'expected a positive bound (m or m/s; inf = none), got {value!r}')
     return x

@@ -78,7 +78,7 @@ from robot_control.laws.servo import limit_vector
 from robot_control.models.base import RobotModel
 from robot_control.core.contact import ContactGuard
 from robot_control.trajectory import from_points, hold
-from robot_control.validation import finite, is_vector
+from robot_control.validation import ArgumentError, finite, is_vector
 
 LAWS = ('computed_torque', 'independent_joint', 'force', 'hybrid')
 JOINT_LAWS = ('computed_torque', 'independent_joint')
@@ -141,17 +141,17 @@ class ControllerConfig:
     def __post_init__(self):
         model = self.model
         if not isinstance(model, RobotModel):
-            raise ValueError(f'model: expected a RobotModel, got {type(model).__name__}')
+            raise ArgumentError('model', f'expected a RobotModel, got {type(model).__name__}')
         n, m = model.n, model.task_dim
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         if self.law not in LAWS:
-            raise ValueError(f'law: unknown {self.law!r}; expected one of {list(LAWS)}')
+            raise ArgumentError('law', f'unknown {self.law!r}; expected one of {list(LAWS)}')
         if self.force_feedback not in FORCE_FEEDBACK:
-            raise ValueError(f'force_feedback: unknown {self.force_feedback!r}; expected one of {list(FORCE_FEEDBACK)}')
+            raise ArgumentError('force_feedback', f'unknown {self.force_feedback!r}; expected one of {list(FORCE_FEEDBACK)}')
         joints = model.joint_names if self.joints is None else self.joints
         joints = validation.names('joints', joints)
         if len(joints) != n:
-            raise ValueError(f'joints: expected {n} names (the model has {n} joints {list(model.joint_names)}), '
+            raise ArgumentError('joints', f'expected {n} names (the model has {n} joints {list(model.joint_names)}), '
                              f'got {list(joints)}')
         set_('joints', joints)
         set_('integral', bool(self.integral))
@@ -162,9 +162,9 @@ class ControllerConfig:
         axes = tuple(self.force_axes)
         unknown = [a for a in axes if a not in model.task_axes]
         if unknown:
-            raise ValueError(f'force_axes: {unknown} not among the model\'s task axes {list(model.task_axes)}')
+            raise ArgumentError('force_axes', f'{unknown} not among the model\'s task axes {list(model.task_axes)}')
         if len(set(axes)) != len(axes):
-            raise ValueError(f'force_axes: duplicate axes in {list(axes)}')
+            raise ArgumentError('force_axes', f'duplicate axes in {list(axes)}')
         set_('force_axes', tuple(a for a in model.task_axes if a in axes))  # task-axis order
         mask = np.array([a in axes for a in model.task_axes], dtype=bool)
         mask.flags.writeable = False
@@ -173,7 +173,7 @@ class ControllerConfig:
         order = [axes.index(a) for a in self.force_axes]  # k_e, x_e were given in `axes` order
         k_e = validation.vector('k_e', self.k_e, k)[order] if k else np.zeros(0)
         if np.any(k_e <= 0.0):
-            raise ValueError(f'k_e: expected positive stiffness (N/m), got {k_e.tolist()}')
+            raise ArgumentError('k_e', f'expected positive stiffness (N/m), got {k_e.tolist()}')
         set_('k_e', _frozen(k_e))
         set_('x_e', _frozen(validation.vector('x_e', self.x_e, k)[order] if k else np.zeros(0)))
         kp0, kv0 = (validation.scalar(name, v, nonnegative=True)
@@ -184,7 +184,7 @@ class ControllerConfig:
         for name in ('contact_max_travel', 'contact_max_speed'):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
-                raise ValueError(f'{name}: expected a positive bound (inf = off), got {value!r}')
+                raise ArgumentError(name, f'expected a positive bound (inf = off), got {value!r}')
             set_(name, float(value))
         self._check_law(n, m, k)
 
@@ -193,29 +193,29 @@ class ControllerConfig:
         if law in JOINT_LAWS:
             if not isinstance(self.gains, ServoGains) or self.gains.n != n:
                 got = self.gains.n if isinstance(self.gains, ServoGains) else self.gains
-                raise ValueError(f'kp: expected {n} gains (one per joint) for law {law}, got {got}')
+                raise ArgumentError('kp', f'expected {n} gains (one per joint) for law {law}, got {got}')
             return
         if m == 0:
-            raise ValueError(f'law: {law} needs a task space; the model has none (set tip for a URDF model)')
+            raise ArgumentError('law', f'{law} needs a task space; the model has none (set tip for a URDF model)')
         if law == 'force':
             if n != 1 or m != 1:
-                raise ValueError(f'law: force is the 1-DOF force servo; the model has {n} joints and '
+                raise ArgumentError('law', f'force is the 1-DOF force servo; the model has {n} joints and '
                                  f'{m} task axes (use hybrid)')
             if k != 1:
-                raise ValueError(f'force_axes: law force needs its task axis {list(self.model.task_axes)}, '
+                raise ArgumentError('force_axes', f'law force needs its task axis {list(self.model.task_axes)}, '
                                  f'got {list(self.force_axes)}')
         if law == 'hybrid':
             if m > n:
-                raise ValueError(f'law: hybrid needs task dimension <= joints; the model has {m} task axes '
+                raise ArgumentError('law', f'hybrid needs task dimension <= joints; the model has {m} task axes '
                                  f'{list(self.model.task_axes)} and {n} joints')
             motion = m - k
             if motion and (not isinstance(self.gains, ServoGains) or self.gains.n not in (m, motion)):
                 got = self.gains.n if isinstance(self.gains, ServoGains) else self.gains
-                raise ValueError(f'kp: expected {m} gains (one per task axis) or {motion} (one per motion '
+                raise ArgumentError('kp', f'expected {m} gains (one per task axis) or {motion} (one per motion '
                                  f'axis) for law hybrid, got {got}')
         if k and (not isinstance(self.force_gains, ServoGains) or self.force_gains.n != k):
             got = self.force_gains.n if isinstance(self.force_gains, ServoGains) else self.force_gains
-            raise ValueError(f'force_kp: expected {k} gains (one per force axis), got {got}')
+            raise ArgumentError('force_kp', f'expected {k} gains (one per force axis), got {got}')
 
     # -- derived -------------------------------------------------------------------------------
     @property
@@ -282,7 +282,7 @@ class ControllerCore:
 
     def __init__(self, config):
         if not isinstance(config, ControllerConfig):
-            raise ValueError(f'config: expected a ControllerConfig, got {type(config).__name__}')
+            raise ArgumentError('config', f'expected a ControllerConfig, got {type(config).__name__}')
         self._cfg = config
         n = config.n
         self._q_d, self._qd_d, self._qdd_d = np.zeros(n), np.zeros(n), np.zeros(n)
@@ -346,10 +346,10 @@ class ControllerCore:
     def configure(self, config):
         """Swap in a new ControllerConfig, effective on the next tick (joints cannot change)."""
         if not isinstance(config, ControllerConfig):
-            raise ValueError(f'config: expected a ControllerConfig, got {type(config).__name__}')
+            raise ArgumentError('config', f'expected a ControllerConfig, got {type(config).__name__}')
         old = self._cfg
         if config.joints != old.joints:
-            raise ValueError(f'joints: cannot change at run time ({list(old.joints)} -> {list(config.joints)})')
+            raise ArgumentError('joints', f'cannot change at run time ({list(old.joints)} -> {list(config.joints)})')
         law_changed = config.law != old.law
         restart = law_changed and (old.law in TASK_LAWS or config.law in TASK_LAWS)
         restart = restart or config.force_axes != old.force_axes
@@ -376,7 +376,7 @@ class ControllerCore:
 
     def _require_active(self, what):
         if not self.active:
-            raise ValueError(f'{what}: no state received yet (the current state is the implicit start)')
+            raise ArgumentError(what, 'no state received yet (the current state is the implicit start)')
 
     def set_trajectory(self, times, positions, velocities=None, accelerations=None, t_start=None):
         """Replace the joint reference by a path through points, like joint_trajectory_controller.
@@ -397,7 +397,7 @@ class ControllerCore:
         if t_start < t_now:
             keep = t_start + times > t_now
             if not keep.any():
-                raise ValueError(f'times: the trajectory ended {t_now - (t_start + times[-1]):.6g} s ago')
+                raise ArgumentError('times', f'the trajectory ended {t_now - (t_start + times[-1]):.6g} s ago')
             times = t_start + times[keep] - t_now
             positions = positions[keep]
             velocities = None if velocities is None else np.asarray(velocities, dtype=float)[keep]
@@ -609,7 +609,7 @@ class ControllerCore:
         self.last_fallback = str(exc)
         g = np.asarray(model.g(q), dtype=float)
         if not np.all(np.isfinite(g)):
-            raise ValueError(f'tau: law failed ({exc}) and the gravity-hold fallback is not finite') from exc
+            raise ArgumentError('tau', f'law failed ({exc}) and the gravity-hold fallback is not finite') from exc
         return g
 
     def _task_state(self, cfg, q, qd, f_meas):
@@ -626,7 +626,7 @@ class ControllerCore:
             f = cfg.k_e * (x[fidx] - cfg.x_e)
         else:
             if f_meas is None:
-                raise ValueError("f_meas: required with force_feedback 'sensor'")
+                raise ArgumentError("f_meas", "required with force_feedback 'sensor'")
             f = validation.vector('f_meas', f_meas, model.task_dim)[fidx]
         fdot = cfg.k_e * xd[fidx]
         if cfg.force_lead_time:

@@ -11,7 +11,7 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.laws.servo import check_finite, per_entry, servo, servo_gains
-from robot_control.validation import all_finite, finite, is_vector
+from robot_control.validation import ArgumentError, all_finite, finite, is_vector
 
 
 def force_1dof(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef=None):
@@ -59,10 +59,10 @@ def spring_force(x, xd, x_e, k_e, sign=0.0):
     x_e = per_entry('x_e', x_e, k)
     k_e = per_entry('k_e', k_e, k)
     if not np.all(k_e > 0.0):
-        raise ValueError(f'k_e: expected positive stiffness, got {k_e.tolist()}')
+        raise ArgumentError('k_e', f'expected positive stiffness, got {k_e.tolist()}')
     sign = per_entry('sign', sign, k)
     if not np.all(np.isin(sign, (-1.0, 0.0, 1.0))):
-        raise ValueError(f'sign: expected -1, 0 or +1 per axis, got {sign.tolist()}')
+        raise ArgumentError('sign', f'expected -1, 0 or +1 per axis, got {sign.tolist()}')
     contact = (sign == 0.0) | (sign * (x - x_e) > 0.0)
     f = np.where(contact, k_e * (x - x_e), 0.0)
     fdot = np.where(contact, k_e * xd, 0.0)

@@ -27,7 +27,7 @@ import numpy as np
 from robot_control import validation
 from robot_control.gains import ServoGains
 from robot_control.laws.servo import bool_mask, check_finite, gain_arrays, per_entry, vectors
-from robot_control.validation import F64, finite, is_vector
+from robot_control.validation import ArgumentError, F64, finite, is_vector
 
 #: largest accepted condition number of the task Jacobian J(q)
 MAX_JACOBIAN_COND = 1e9
@@ -40,7 +40,7 @@ def _axis_gains(gains, axes, name):
     m, k = axes.shape[0], int(np.count_nonzero(axes))
     if gains is None:
         if k:
-            raise ValueError(f'{name}: gains required for {k} axes')
+            raise ArgumentError(name, f'gains required for {k} axes')
         return np.zeros(m), np.zeros(m), np.zeros(m)
     if np.size(getattr(gains, 'kp', ())) == k and k != m:
         full = (np.zeros(m), np.zeros(m), np.zeros(m))
@@ -55,7 +55,7 @@ def _axes_and_stiffness(force_axes, K_e, m):
     axes = bool_mask('force_axes', force_axes, m)
     K_e = per_entry('K_e', K_e, m)
     if not (K_e[axes] > 0.0).all():
-        raise ValueError(f'K_e: expected positive stiffness on the force axes, got {K_e.tolist()}')
+        raise ArgumentError('K_e', f'expected positive stiffness on the force axes, got {K_e.tolist()}')
     return axes, np.where(axes, K_e, 1.0)
 
 
@@ -181,7 +181,7 @@ def _task_shape(J):
     """(m, n) of the task Jacobian J, checked: m <= n and J far from singular (_check_jacobian)."""
     m, n = J.shape
     if m > n:
-        raise ValueError(f'J: task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
+        raise ArgumentError('J', f'task dimension {m} exceeds the {n} joints; operational-space control needs m <= n')
     _check_jacobian(J)
     return m, n
 
@@ -206,7 +206,7 @@ def _check_jacobian(J):
             return
     sv = np.linalg.svd(J, compute_uv=False)
     if not sv[-1] * MAX_JACOBIAN_COND > sv[0]:
-        raise ValueError(f'q: task Jacobian singular or nearly (singular values {sv.tolist()})')
+        raise ArgumentError('q', f'task Jacobian singular or nearly (singular values {sv.tolist()})')
 
 
 def _solve(A, b):
@@ -286,10 +286,10 @@ def _posture_gains(k_posture, n):
     try:
         kp0, kv0 = k_posture
     except (TypeError, ValueError):
-        raise ValueError(f'k_posture: expected a (kp, kv) pair, got {k_posture!r}') from None
+        raise ArgumentError('k_posture', f'expected a (kp, kv) pair, got {k_posture!r}') from None
     kp0, kv0 = per_entry('k_posture.kp', kp0, n), per_entry('k_posture.kv', kv0, n)
     if (kp0 < 0.0).any() or (kv0 < 0.0).any():
-        raise ValueError(f'k_posture: expected non-negative gains, got {k_posture!r}')
+        raise ArgumentError('k_posture', f'expected non-negative gains, got {k_posture!r}')
     return kp0, kv0
 
 

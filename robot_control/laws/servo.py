@@ -8,16 +8,16 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.gains import ServoGains
-from robot_control.validation import all_finite, finite, is_vector
+from robot_control.validation import ArgumentError, all_finite, finite, is_vector
 
 
 def bool_mask(name, value, n):
     """`value` as a bool (n,) array, or ValueError naming `name` (wrong length or not booleans)."""
     a = np.asarray(value)
     if a.dtype != np.bool_:
-        raise ValueError(f'{name}: expected a boolean mask, got dtype {a.dtype}')
+        raise ArgumentError(name, f'expected a boolean mask, got dtype {a.dtype}')
     if a.shape != (n,):
-        raise ValueError(f'{name}: expected length {n}, got shape {a.shape}')
+        raise ArgumentError(name, f'expected length {n}, got shape {a.shape}')
     return a
 
 
@@ -28,13 +28,13 @@ def limit_vector(name, value, n):
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name}: expected a number or {n} numbers, got {value!r}') from exc
+        raise ArgumentError(name, f'expected a number or {n} numbers, got {value!r}') from exc
     if a.ndim == 0:
         a = np.full(n, float(a))
     if a.shape != (n,):
-        raise ValueError(f'{name}: expected a scalar or length {n}, got shape {a.shape}')
+        raise ArgumentError(name, f'expected a scalar or length {n}, got shape {a.shape}')
     if np.any(np.isnan(a)) or not np.all(a > 0.0):
-        raise ValueError(f'{name}: expected positive bounds (inf allowed), got {a.tolist()}')
+        raise ArgumentError(name, f'expected positive bounds (inf allowed), got {a.tolist()}')
     return a
 
 
@@ -71,20 +71,20 @@ def gain_arrays(gains, n, name='gains'):
     """(kp, kv, ki) from `gains`, each a finite non-negative (n,) array; a missing ki is zeros."""
     kp, kv = getattr(gains, 'kp', None), getattr(gains, 'kv', None)
     if kp is None or kv is None:
-        raise ValueError(f'{name}: expected an object with kp, kv, ki (ServoGains), got {gains!r}')
+        raise ArgumentError(name, f'expected an object with kp, kv, ki (ServoGains), got {gains!r}')
     ki = getattr(gains, 'ki', None)
     ki = np.zeros(n) if ki is None else ki
     out = vectors(n, **{f'{name}.kp': kp, f'{name}.kv': kv, f'{name}.ki': ki})
     for attr, a in zip(('kp', 'kv', 'ki'), out):
         if (a < 0.0).any():
-            raise ValueError(f'{name}.{attr}: expected non-negative gains, got {a.tolist()}')
+            raise ArgumentError(f'{name}.{attr}', f'expected non-negative gains, got {a.tolist()}')
     return tuple(out)
 
 
 def check_finite(name, value):
     """Return `value` if every entry is finite; else ValueError naming `name` (an overflow upstream)."""
     if not np.isfinite(value).all():
-        raise ValueError(f'{name}: non-finite result {np.asarray(value).tolist()} from finite inputs')
+        raise ArgumentError(name, f'non-finite result {np.asarray(value).tolist()} from finite inputs')
     return value
 
 
@@ -97,7 +97,7 @@ class Integral:
 
     def __init__(self, n, limit=np.inf):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ValueError(f'n: expected a positive integer, got {n!r}')
+            raise ArgumentError('n', f'expected a positive integer, got {n!r}')
         self._limit = limit_vector('limit', limit, int(n)).copy()
         self._neg_limit = -self._limit
         self._value = np.zeros(int(n))

@@ -5,6 +5,7 @@ make_model('urdf', ...), for_scenario of a URDF scenario).
 """
 import numpy as np
 
+from robot_control.validation import ArgumentError
 from robot_control import units, validation
 from robot_control.models.base import RobotModel
 from robot_control.models.closed_form import CLOSED_FORM
@@ -19,7 +20,7 @@ def make_model(name, **params):
     if name == 'urdf':
         from robot_control.models.urdf_model import UrdfModel
         if 'urdf' not in params:
-            raise ValueError("urdf: make_model('urdf', ...) needs urdf=<file path, XML text or shipped name>")
+            raise ArgumentError("urdf", "make_model('urdf', ...) needs urdf=<file path, XML text or shipped name>")
         try:
             return UrdfModel(**params)
         except TypeError as exc:
@@ -27,7 +28,7 @@ def make_model(name, **params):
     try:
         cls = CLOSED_FORM[name]
     except KeyError:
-        raise ValueError(f'model: unknown closed-form model {name!r}; expected one of {sorted(CLOSED_FORM)} '
+        raise ArgumentError('model', f'unknown closed-form model {name!r}; expected one of {sorted(CLOSED_FORM)} '
                          "or 'urdf'") from None
     try:
         return cls(**params)
@@ -47,14 +48,14 @@ def for_scenario(scenario, **overrides):
     if isinstance(scenario, str):
         scenario = scenarios.get(scenario)
     elif not isinstance(scenario, scenarios.Scenario):
-        raise ValueError(f'scenario: expected a Scenario or a scenario name, got {type(scenario).__name__}')
+        raise ArgumentError('scenario', f'expected a Scenario or a scenario name, got {type(scenario).__name__}')
     if scenario.model != 'urdf':
         return make_model(scenario.model, **{**scenario.params, **overrides})
     from robot_control.models.urdf_model import UrdfModel, resolve_urdf
     allowed = {'urdf', 'joints', 'tip', 'q_locked', 'gravity'}
     unknown = sorted(set(overrides) - allowed)
     if unknown:
-        raise ValueError(f'overrides: unknown {unknown} for URDF scenario {scenario.name!r}; '
+        raise ArgumentError('overrides', f'unknown {unknown} for URDF scenario {scenario.name!r}; '
                          f'expected some of {sorted(allowed)}')
     args = {'urdf': scenario.urdf, 'joints': scenario.joints, 'tip': scenario.tip or None,
             'gravity': scenario.params.get('gravity', units.GRAVITY), **overrides}

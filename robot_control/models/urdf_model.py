@@ -13,6 +13,7 @@ from collections.abc import Mapping
 import numpy as np
 import pinocchio as pin
 
+from robot_control.validation import ArgumentError
 from robot_control import urdf as urdf_files
 from robot_control import units, validation
 from robot_control.models.base import RobotModel
@@ -31,13 +32,13 @@ def _parse(xml, where):
     try:
         root = ET.fromstring(xml)
     except ET.ParseError as exc:
-        raise ValueError(f'urdf: {where} is not well-formed XML: {exc}') from None
+        raise ArgumentError('urdf', f'{where} is not well-formed XML: {exc}') from None
     if root.tag != 'robot':
-        raise ValueError(f'urdf: {where} has root element <{root.tag}>, expected <robot>')
+        raise ArgumentError('urdf', f'{where} has root element <{root.tag}>, expected <robot>')
     try:
         return pin.buildModelFromXML(xml)
     except (ValueError, RuntimeError) as exc:
-        raise ValueError(f'urdf: {where} is not a valid URDF: {exc}') from None
+        raise ArgumentError('urdf', f'{where} is not a valid URDF: {exc}') from None
 
 
 class UrdfModel(RobotModel):
@@ -60,7 +61,7 @@ class UrdfModel(RobotModel):
             try:
                 joints = validation.names('joints', joints)
             except TypeError:
-                raise ValueError(f'joints: expected a sequence of joint names, got {joints!r}') from None
+                raise ArgumentError('joints', f'expected a sequence of joint names, got {joints!r}') from None
         xml, where = urdf_files.read(urdf)
         full = _parse(xml, where)
         self.source = where                  # file path, or 'URDF XML string'
@@ -68,13 +69,13 @@ class UrdfModel(RobotModel):
         joints = movable if joints is None else joints
         unknown = [j for j in joints if j not in movable]
         if unknown:
-            raise ValueError(f'joints: unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+            raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
         if not joints:
-            raise ValueError('joints: expected at least one joint')
+            raise ArgumentError('joints', 'expected at least one joint')
         for name in joints:
             jm = full.joints[full.getJointId(name)]
             if jm.nq != 1 or jm.nv != 1:
-                raise ValueError(f'joints: {name!r} is a {jm.shortname()} (nq={jm.nq}, nv={jm.nv}); '
+                raise ArgumentError('joints', f'{name!r} is a {jm.shortname()} (nq={jm.nq}, nv={jm.nv}); '
                                  'only 1-DOF revolute/prismatic joints can be selected')
         q_ref = self._reference(full, movable, joints, q_locked)
         lock = [full.getJointId(n) for n in movable if n not in joints]
@@ -109,7 +110,7 @@ class UrdfModel(RobotModel):
         else:
             if not isinstance(tip, str) or not model.existFrame(tip):
                 links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
-                raise ValueError(f'tip: unknown frame {tip!r}; the URDF\'s links are {links}')
+                raise ArgumentError('tip', f'unknown frame {tip!r}; the URDF\'s links are {links}')
             body = model.existFrame(tip, pin.FrameType.BODY)   # a link, rather than a joint of that name
             fid = model.getFrameId(tip, pin.FrameType.BODY) if body else model.getFrameId(tip)
             self.tip, self.frame_id, self.task_axes = tip, fid, ('x', 'y', 'z')
@@ -129,10 +130,10 @@ class UrdfModel(RobotModel):
         if isinstance(q_locked, Mapping):
             for name, value in q_locked.items():
                 if name not in movable:
-                    raise ValueError(f'q_locked: unknown joint {name!r}; '
+                    raise ArgumentError('q_locked', f'unknown joint {name!r}; '
                                      f'the URDF\'s movable joints are {list(movable)}')
                 if name in joints:
-                    raise ValueError(f'q_locked: {name!r} is one of the selected joints, it cannot be locked')
+                    raise ArgumentError('q_locked', f'{name!r} is one of the selected joints, it cannot be locked')
                 x = validation.scalar(f'q_locked[{name!r}]', value)
                 jm = full.joints[full.getJointId(name)]
                 if jm.nq == 1:
@@ -140,7 +141,7 @@ class UrdfModel(RobotModel):
                 elif jm.nq == 2 and jm.nv == 1:   # continuous joint: (cos, sin)
                     q_ref[jm.idx_q:jm.idx_q + 2] = (np.cos(x), np.sin(x))
                 else:
-                    raise ValueError(f'q_locked: {name!r} is a {jm.shortname()}; give a full configuration instead')
+                    raise ArgumentError('q_locked', f'{name!r} is a {jm.shortname()}; give a full configuration instead')
             return q_ref
         return validation.vector('q_locked', q_locked, full.nq).copy()
 

@@ -25,6 +25,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from robot_control.validation import ArgumentError
 from robot_control import units, validation
 from robot_control.units import NS_PER_S
 
@@ -57,7 +58,7 @@ def ns_to_stamp(ns, out=None):
     """Integer nanoseconds (>= 0) -> builtin_interfaces/Time; fills `out` in place when given."""
     ns = int(ns)
     if ns < 0:
-        raise ValueError(f'ns: expected a non-negative time, got {ns}')
+        raise ArgumentError('ns', f'expected a non-negative time, got {ns}')
     out = Time() if out is None else out
     out.sec, out.nanosec = units.split_ns(ns)
     return out
@@ -90,7 +91,7 @@ class JointStateReader:
     def __init__(self, joints):
         self.joints = validation.names('joints', joints)
         if not self.joints:
-            raise ValueError('joints: expected at least one joint name')
+            raise ArgumentError('joints', 'expected at least one joint name')
         n = len(self.joints)
         self._q = np.zeros(n)
         self._qd = np.zeros(n)
@@ -104,11 +105,11 @@ class JointStateReader:
         seen = {}
         for i, name in enumerate(names):
             if name in seen:
-                raise ValueError(f'name: duplicate joint {name!r}')
+                raise ArgumentError('name', f'duplicate joint {name!r}')
             seen[name] = i
         missing = [j for j in self.joints if j not in seen]
         if missing:
-            raise ValueError(f'name: missing controlled joints {missing} (got {list(names)})')
+            raise ArgumentError('name', f'missing controlled joints {missing} (got {list(names)})')
         self._index = np.array([seen[j] for j in self.joints], dtype=np.intp)
         self._names = list(names)
         self._in_order = self._names == list(self.joints)
@@ -118,9 +119,9 @@ class JointStateReader:
         names, position, velocity = msg.name, msg.position, msg.velocity
         k = len(names)
         if len(position) != k:
-            raise ValueError(f'position: expected one entry per name ({k}), got {len(position)}')
+            raise ArgumentError('position', f'expected one entry per name ({k}), got {len(position)}')
         if len(velocity) != k:
-            raise ValueError(f'velocity: expected one entry per name ({k}), got {len(velocity)}')
+            raise ArgumentError('velocity', f'expected one entry per name ({k}), got {len(velocity)}')
         index = self._index_for(names)
         q, qd = self._q, self._qd
         if self._in_order and type(position) is tuple and type(velocity) is tuple:
@@ -150,10 +151,10 @@ class JointStateReader:
         for field, values in (('position', self._q), ('velocity', self._qd)):
             if not np.isfinite(values).all():
                 bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
-                raise ValueError(f'{field}: not finite for {", ".join(bad)}')
+                raise ArgumentError(field, f'not finite for {", ".join(bad)}')
             if not _plausible(values):
                 bad = [f'{self.joints[i]!r}: {values[i]:g}' for i in np.flatnonzero(np.abs(values) > MAX_ABS)]
-                raise ValueError(f'{field}: implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')
+                raise ArgumentError(field, f'implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')
         return self._q, self._qd
 
 
@@ -219,14 +220,14 @@ def _point_field(points, field, n, order, required):
         for i, p in enumerate(points):
             if len(getattr(p, field)) != n:
                 what = 'one entry per joint name' if required else 'none, or one entry per joint name in every point'
-                raise ValueError(f'points[{i}].{field}: expected {what} ({n}), got {len(getattr(p, field))}')
+                raise ArgumentError(f'points[{i}].{field}', f'expected {what} ({n}), got {len(getattr(p, field))}')
     out = np.empty((len(points), n))
     for i, p in enumerate(points):
         row = np.asarray(getattr(p, field), dtype=float)
         if not np.isfinite(row).all():
-            raise ValueError(f'points[{i}].{field}: not finite {row.tolist()}')
+            raise ArgumentError(f'points[{i}].{field}', f'not finite {row.tolist()}')
         if not _plausible(row):
-            raise ValueError(f'points[{i}].{field}: implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
+            raise ArgumentError(f'points[{i}].{field}', f'implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
         out[i] = row[order]
     return out
 
@@ -241,23 +242,23 @@ def trajectory_goal(msg, joints):
     joints = tuple(joints)
     names = list(msg.joint_names)
     if len(set(names)) != len(names):
-        raise ValueError(f'joint_names: duplicate names in {names}')
+        raise ArgumentError('joint_names', f'duplicate names in {names}')
     if set(names) != set(joints):
         unknown = sorted(set(names) - set(joints))
         missing = sorted(set(joints) - set(names))
-        raise ValueError(f'joint_names: unknown {unknown}, missing {missing} (controlled joints {list(joints)})')
+        raise ArgumentError('joint_names', f'unknown {unknown}, missing {missing} (controlled joints {list(joints)})')
     points = msg.points
     if not points:
-        raise ValueError('points: empty trajectory')
+        raise ArgumentError('points', 'empty trajectory')
     n = len(joints)
     order = np.array([names.index(j) for j in joints], dtype=np.intp)
     times = np.array([duration_to_s(p.time_from_start) for p in points])
     if not times[0] > 0.0:
-        raise ValueError(f'points[0].time_from_start: expected > 0 s, got {times[0]:g} s')
+        raise ArgumentError('points[0].time_from_start', f'expected > 0 s, got {times[0]:g} s')
     steps = np.diff(times)
     if np.any(steps <= 0.0):
         i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
-        raise ValueError(f'points[{i}].time_from_start: not after points[{i - 1}] '
+        raise ArgumentError(f'points[{i}].time_from_start', f'not after points[{i - 1}] '
                          f'({times[i]:g} s <= {times[i - 1]:g} s)')
     positions = _point_field(points, 'positions', n, order, required=True)
     velocities = _point_field(points, 'velocities', n, order, required=False)
@@ -290,7 +291,7 @@ def _axis_indices(axes):
     try:
         return [WRENCH_AXES.index(a) for a in axes]
     except ValueError:
-        raise ValueError(f'axes: task axes {list(axes)} must be named from {list(WRENCH_AXES)} '
+        raise ArgumentError('axes', f'task axes {list(axes)} must be named from {list(WRENCH_AXES)} '
                          'to be read from a wrench') from None
 
 
@@ -303,9 +304,9 @@ def wrench_force(msg, axes, out=None):
     for k, i in enumerate(idx):
         out[k] = xyz[i]
     if not np.isfinite(out).all():
-        raise ValueError(f'wrench.force: not finite {list(xyz)}')
+        raise ArgumentError('wrench.force', f'not finite {list(xyz)}')
     if not _plausible(out):
-        raise ValueError(f'wrench.force: implausible magnitude (> {MAX_ABS:g} N) {list(xyz)}')
+        raise ArgumentError('wrench.force', f'implausible magnitude (> {MAX_ABS:g} N) {list(xyz)}')
     return out
 
 

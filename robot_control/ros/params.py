@@ -33,18 +33,19 @@ from robot_control import gains as gain_design
 from robot_control import scenarios, units, validation
 from robot_control.core.controller import FORCE_FEEDBACK, JOINT_LAWS, LAWS, ControllerConfig
 from robot_control.gains import ServoGains
+from robot_control.validation import ArgumentError
 from robot_control.models import CLOSED_FORM, make_model
 
 T = Parameter.Type
 
 
-class ParameterError(ValueError):
-    """An invalid parameter value; str() is '<name>: <reason>'."""
+class ParameterError(ArgumentError):
+    """An invalid parameter value: `name` is the parameter; str() is '<name>: <reason>'."""
 
     def __init__(self, name, reason):
-        self.name = name
-        text = str(reason)
-        super().__init__(text if text.startswith(f'{name}:') else f'{name}: {text}')
+        if isinstance(reason, ArgumentError):
+            reason = reason.reason if reason.name == name else str(reason)
+        super().__init__(name, reason)
 
 
 @dataclasses.dataclass(frozen=True)
