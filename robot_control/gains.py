@@ -44,7 +44,7 @@ class GainRuleError(ArgumentError):
 def _gain_vector(name, value, n):
     """`value` as a read-only finite non-negative (n,) array, or ValueError naming `name`."""
     a = validation.vector(name, value, n).copy()
-    if np.any(a < 0.0):
+    if a.size and min(a.tolist()) < 0.0:
         raise ArgumentError(name, f'expected non-negative gains, got {a.tolist()}')
     a.flags.writeable = False
     return a
@@ -68,6 +68,15 @@ class ServoGains:
         object.__setattr__(self, 'kp', kp)
         object.__setattr__(self, 'kv', _gain_vector('kv', self.kv, n))
         object.__setattr__(self, 'ki', _gain_vector('ki', np.zeros(n) if self.ki is None else self.ki, n))
+
+    @classmethod
+    def _of_checked(cls, kp, kv, ki):
+        """ServoGains of (n,) arrays that are already finite and >= 0 (made read-only here, not copied)."""
+        gains = object.__new__(cls)
+        for name, a in (('kp', kp), ('kv', kv), ('ki', ki)):
+            a.flags.writeable = False
+            object.__setattr__(gains, name, a)
+        return gains
 
     @property
     def n(self):

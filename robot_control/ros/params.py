@@ -31,7 +31,8 @@ from rclpy.parameter import Parameter
 
 from robot_control import gains as gain_design
 from robot_control import scenarios, units, validation
-from robot_control.core.controller import FORCE_FEEDBACK, JOINT_LAWS, LAWS, ControllerConfig
+from robot_control.core.config import FORCE_FEEDBACK, ControllerConfig
+from robot_control.laws import LAWS, law_class
 from robot_control.gains import ServoGains
 from robot_control.validation import ArgumentError
 from robot_control.models import CLOSED_FORM, make_model
@@ -375,9 +376,6 @@ class ControllerParameters:
 
     def _config(self, values, model):
         law = values['law']
-        if law not in LAWS:
-            raise ParameterError('law', f'unknown {law!r}; expected one of {list(LAWS)}')
-        n, m = model.n, model.task_dim
         try:
             design = gain_design.design(values['zeta'], values['omega_res'], values['omega_n'] or None,
                                         integral=values['integral'])
@@ -386,15 +384,14 @@ class ControllerParameters:
             raise ParameterError(name if name in self.specs else 'zeta', exc) from None
         force_axes = values['force_axes']
         k = len(force_axes)
-        if law in JOINT_LAWS:
-            scale = (lambda: self._joint_inertia(model)) if law == 'independent_joint' else None
-            motion = self._gains(values, '', n, design, scale)
-        elif law == 'hybrid':
-            motion_axes = m - k
-            dim = len(values['kp']) if values['kp'] and len(values['kp']) in (m, motion_axes) else m
-            motion = self._gains(values, '', max(dim, 1), design) if m else None
-        else:
-            motion = None
+        law_cls = law_class(law)
+        sizes = law_cls.servo_sizes(model, force_axes)
+        motion = None
+        if sizes:
+            explicit = len(values['kp'])
+            size = explicit if explicit in sizes else sizes[0]
+            scale = (lambda: self._joint_inertia(model)) if law_cls.torque_gains else None
+            motion = self._gains(values, '', size, design, scale)
         force = self._gains(values, 'force_', k, design) if k else None
         return ControllerConfig(
             model=model, law=law, gains=motion, force_gains=force, integral=values['integral'],

@@ -26,6 +26,7 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
 from cdr_helpers import big_endian
+from robot_control import units
 from robot_control.ros import conversions as cv
 from robot_control.ros.controller_node import ControllerNode
 from robot_control.gains import ServoGains, design
@@ -274,7 +275,7 @@ def test_trajectory_is_accepted_and_followed_by_the_reference(ros_context):
         expected = from_points(0.0, (q, None, None), [0.01, 0.02], [[0.3, 0.6], [0.4, 0.55]])
         for k in range(1, 30):
             _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
-            for got, want in zip(_ref_of(ref), expected.sample(k * DT_NS * 1e-9)):
+            for got, want in zip(_ref_of(ref), expected.sample(units.seconds(k * DT_NS))):
                 np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
         np.testing.assert_allclose(ref[1], [0.4, 0.55], rtol=0, atol=1e-12)   # last point held
 
@@ -315,13 +316,13 @@ def test_new_trajectory_replaces_the_active_one_without_a_reference_jump(ros_con
         assert np.all(np.abs(before[1]) > 1.0)          # mid-move
         robot.send_until(ex, robot.traj_pub, cv.joint_trajectory(POLAR_JOINTS, [0.03], [[0.0, 0.4]]),
                          lambda: ctrl.trajectories_accepted == 2)
-        t_r = 15 * DT_NS * 1e-9
+        t_r = units.seconds(15 * DT_NS)
         expected = from_points(t_r, before, [0.03], [[0.0, 0.4]])
         prev = before
         for k in range(16, 50):
             _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
             now = _ref_of(ref)
-            for got, want in zip(now, expected.sample(k * DT_NS * 1e-9)):
+            for got, want in zip(now, expected.sample(units.seconds(k * DT_NS))):
                 np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
             dt = DT_NS * 1e-9
             assert np.all(np.abs(now[0] - prev[0]) <= np.abs(prev[1]) * dt + 0.5 * np.abs(prev[2]) * dt ** 2 + 1e-4)
@@ -345,7 +346,7 @@ def test_a_wrench_reference_stamped_ahead_applies_from_the_first_state_at_its_st
         robot.step(ex, ['x'], [0.1], [0.0], T0_NS)
         at = T0_NS + 3 * DT_NS + 1                                   # between two states: the next one applies it
         robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [7.5], stamp_ns=at),
-                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl._pending_force is not None)
+                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl.core.force_pending is not None)
         targets = []
         for k in range(1, 7):
             _, ref, _ = robot.step(ex, ['x'], [0.1], [0.0], T0_NS + k * DT_NS)
@@ -362,7 +363,7 @@ def test_a_wrench_reference_stamped_ahead_is_dropped_when_time_goes_back(ros_con
         robot.step(ex, ['x'], [0.1], [0.0], T0_NS + 10 * DT_NS)
         at = T0_NS + 13 * DT_NS
         robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [7.5], stamp_ns=at),
-                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl._pending_force is not None)
+                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl.core.force_pending is not None)
         restarts = ctrl.core.restarts
         targets = [robot.step(ex, ['x'], [0.1], [0.0], T0_NS + k * DT_NS)[1][1][0] for k in range(0, 20)]
         assert ctrl.core.restarts == restarts + 1 and ctrl.rejected['wrench_reference'] == 0
@@ -549,7 +550,7 @@ def test_q_d_parameter_moves_the_reference_from_the_current_one(ros_context):
         expected = from_points(0.0, (q, None, None), [0.02], [[0.2, 0.6]])
         for k in range(1, 25):
             _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
-            for got, want in zip(_ref_of(ref), expected.sample(k * DT_NS * 1e-9)):
+            for got, want in zip(_ref_of(ref), expected.sample(units.seconds(k * DT_NS))):
                 np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
 
 
