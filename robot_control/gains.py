@@ -11,8 +11,11 @@ cubic is placed instead: the PD factor keeps its zeta and w_n and a third real p
 
     (s^2 + 2 zeta w_n s + w_n^2)(s + w_n)  =>  kv = (2 zeta + 1) w_n,  kp = (1 + 2 zeta) w_n^2,  ki = w_n^3.
 
-With zeta >= 1 all three roots are real and negative (no overshoot); with zeta = 1 they form a
-triple root at -w_n, so the fastest pole is w_n itself and the resonance rule still holds.
+With zeta >= 1 all three roots are real and negative; with zeta = 1 they form a triple root at
+-w_n, so the fastest pole is w_n itself and the resonance rule still holds. The integral also puts
+a zero at -ki/kp = -w_n / (1 + 2 zeta) in the response to the set point: a set-point step from rest
+overshoots (about 25 % at zeta = 1) although no pole is complex; a smooth reference (a quintic move)
+is followed without overshoot.
 
 Units: kp in 1/s^2, kv in 1/s, ki in 1/s^3, w_n and w_res in rad/s (computed-torque servo, where
 the plant is a unit mass). Command line:

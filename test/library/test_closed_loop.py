@@ -212,3 +212,26 @@ def test_hybrid_force_and_motion_subspaces_do_not_interfere(name):
     assert np.max(np.abs(x_d - q_a)[:, ~axes]) < 1e-6
     e_f = critically_damped(np.array([5.0]), np.array([0.0]), math.sqrt(G_N), ts)[:, 0]
     assert np.max(np.abs((10.0 - f_a) - e_f)) < 1e-6
+
+
+def _pid_loop(reference, gains):
+    """y = [q, qd, int E] of a unit mass under the PID servo v = qdd_d + Kv Ed + Kp E + Ki int E."""
+    def rhs(t, y):
+        q_d, qd_d, qdd_d = reference(t)
+        E, Ed = q_d - y[0], qd_d - y[1]
+        return np.array([y[1], qdd_d + gains.kv[0] * Ed + gains.kp[0] * E + gains.ki[0] * y[2], E])
+    return rhs
+
+
+@pytest.mark.parametrize('zeta, overshoot', [(1.0, 0.249), (1.5, 0.173), (2.0, 0.136)])
+def test_pid_set_point_step_overshoots_through_the_integral_zero_and_a_smooth_reference_does_not(zeta, overshoot):
+    """The designed PID (real poles at -w_n twice and -w_n) has the zero -ki/kp = -w_n / (1 + 2 zeta)
+    from the set point: a step of q_d from rest overshoots (about 25 % at zeta = 1) although no pole
+    is complex. The demo's quintic moves (robot_control.trajectory) follow without overshoot."""
+    g = design(zeta, 12.0, integral=True).gains(1)
+    assert -g.ki[0] / g.kp[0] == pytest.approx(-W_N / (1 + 2 * zeta))
+    _, step = integrate(_pid_loop(lambda t: (1.0, 0.0, 0.0), g), [0.0, 0.0, 0.0], 3.0, dt=1e-4)
+    assert step[:, 0].max() - 1.0 == pytest.approx(overshoot, abs=0.002)
+    _, smooth = integrate(_pid_loop(lambda t: tuple(np.atleast_1d(a)[0] for a in quintic(0.0, 1.0, 1.0, t)), g),
+                          [0.0, 0.0, 0.0], 3.0, dt=1e-4)
+    assert smooth[:, 0].max() - 1.0 < 1e-9 and smooth[-1, 0] == pytest.approx(1.0, abs=1e-9)
