@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from robot_control import validation
+from robot_control.core.tolerances import Tolerances
 from robot_control.gains import ServoGains
 from robot_control.laws import law_class
 from robot_control.models.base import RobotModel
@@ -49,6 +50,9 @@ class ControllerConfig:
     force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
     contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
       measured force explains, m/s along the axis; > 0, inf = off), robot_control.core.contact.ContactGuard.
+    trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
+      goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
+      (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
     """
 
     model: RobotModel
@@ -69,6 +73,10 @@ class ControllerConfig:
     force_ramp_time: float = 0.5
     contact_max_travel: float = math.inf
     contact_max_speed: float = math.inf
+    trajectory_tolerance: np.ndarray = 0.0
+    goal_tolerance: np.ndarray = 0.0
+    goal_time: float = 0.0
+    stopped_velocity_tolerance: float = 0.01
 
     def __post_init__(self):
         model = self.model
@@ -99,6 +107,7 @@ class ControllerConfig:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
                 raise ArgumentError(name, f'expected a positive bound (inf = off), got {value!r}')
             set_(name, float(value))
+        self._set_tolerances(set_)
         set_('_law', law(self))
 
     def _set_force_axes(self, set_):
@@ -122,7 +131,25 @@ class ControllerConfig:
         set_('_force_mask', np.array([a in axes for a in task_axes], dtype=bool))
         self._force_mask.flags.writeable = False
 
+    def _set_tolerances(self, set_):
+        n = self.model.n
+        for name in ('trajectory_tolerance', 'goal_tolerance'):
+            value = validation.per_entry(name, getattr(self, name), n)
+            if min(value.tolist()) < 0.0:
+                raise ArgumentError(name, f'expected tolerances >= 0 (0 = not checked), got {value.tolist()}')
+            set_(name, _frozen(value))
+        set_('goal_time', validation.scalar('goal_time', self.goal_time, nonnegative=True))
+        set_('stopped_velocity_tolerance', validation.scalar('stopped_velocity_tolerance',
+                                                             self.stopped_velocity_tolerance, nonnegative=True))
+        set_('_tolerances', Tolerances(self.trajectory_tolerance, self.goal_tolerance, self.goal_time,
+                                       self.stopped_velocity_tolerance))
+
     # -- derived ---------------------------------------------------------------------------------
+    @property
+    def tolerances(self):
+        """The trajectory's goal and path tolerances (robot_control.core.tolerances.Tolerances)."""
+        return self._tolerances
+
     @property
     def n(self):
         """Number of joints."""

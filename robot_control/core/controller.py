@@ -36,6 +36,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.core.contact import ContactGuard
 from robot_control.core.integral import IntegralAction
 from robot_control.core.references import References
+from robot_control.core.tolerances import GoalMonitor
 from robot_control.laws import Tick
 from robot_control.laws.force import _spring_force
 from robot_control.laws.saturation import _saturate
@@ -74,6 +75,7 @@ class ControllerCore:
         self.saturation_counts = np.zeros(n, dtype=np.int64)
         self.last_fallback = ''
         self._guard = self._make_guard(config)
+        self.goal = GoalMonitor(config.joints)
 
     # -- configuration -----------------------------------------------------------------------------
     @property
@@ -114,10 +116,22 @@ class ControllerCore:
         return self._t
 
     def set_trajectory(self, times, positions, velocities=None, accelerations=None, t_start=None):
-        """Replace the joint reference by a path through points (References.set_trajectory); the start
-        time t_start is on the update() time base, None = the last tick. Returns the start time used."""
+        """Replace the joint reference by a path through points (References.set_trajectory: the first
+        point may be at 0 s, NaN positions hold a joint), checked against the model's position and
+        velocity limits; its goal and path tolerances are watched from now on. The start time t_start
+        is on the update() time base, None = the last tick. Returns the start time used."""
         self._require_active('trajectory')
-        return self._refs.set_trajectory(self._t, times, positions, velocities, accelerations, t_start)
+        model = self._cfg.model
+        limits = (*model.position_limits, model.velocity_limit, self._cfg.joints)
+        traj = self._refs.set_trajectory(self._t, times, positions, velocities, accelerations, t_start, limits)
+        self.goal.start(traj.t_end)
+        return traj.t0
+
+    def hold_position(self):
+        """Cancel the motion: hold the last measured position, at rest (an empty trajectory)."""
+        self._require_active('hold')
+        self._refs.hold(self._t, self._tick.q.copy())
+        self.goal.cancel('cancelled by an empty trajectory')
 
     def set_goal(self, q_goal, duration=None):
         """Quintic move of the joint reference to q_goal (n,) over `duration` s (default move_time); before
@@ -152,6 +166,7 @@ class ControllerCore:
 
     def stop(self):
         """Stop (watchdog): the next update() restarts from the then-current state."""
+        self.goal.cancel('the controller stopped')
         self.active = False
         self._reinit = self._restart = False
 
@@ -173,6 +188,8 @@ class ControllerCore:
             self._measure_task(tick, f_meas)
         dt = self._advance(t, tick)
         self._sample_references(t, tick)
+        if law.tracks == 'joint' and self.goal.active:
+            self._watch_goal(tick)
         law.errors(tick)
         int_E = self._integrate(tick, dt)
         tau, int_E = self._evaluate(tick, int_E)
@@ -233,6 +250,13 @@ class ControllerCore:
             guard.check(x_n, tick.xd[mask], tick.f, refs.f_target)
             if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
                 guard.substitute(x_n, tick.f, refs.f_d, refs.fd_d, refs.fdd_d)
+
+    def _watch_goal(self, tick):
+        """Tolerances of the trajectory followed: a path violation or a missed goal holds the position."""
+        outcome = self.goal.check(tick.t, tick.q, tick.qd, tick.q_d, self._cfg.tolerances)
+        if outcome in ('path', 'missed'):
+            self._refs.hold(tick.t, tick.q.copy())
+            self._refs.sample(tick.t, False)
 
     def _integrate(self, tick, dt):
         """The integral the law uses this tick (None without integral action)."""

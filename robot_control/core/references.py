@@ -87,28 +87,47 @@ class References:
         self._traj = from_points(t_now, self._traj.sample(t_now), [duration], [q_goal])
         self._pending = None
 
-    def set_trajectory(self, t_now, times, positions, velocities=None, accelerations=None, t_start=None):
+    def set_trajectory(self, t_now, times, positions, velocities=None, accelerations=None, t_start=None,
+                       limits=None):
         """A path through points (joint_trajectory_controller): times (k,) s after t_start (None: t_now),
-        positions (k, n), optional velocities/accelerations (k, n). Starts from the reference sampled
-        at its start; a start in the future is pending; points already due are dropped (all due:
-        ArgumentError naming times). Returns the start time used."""
+        the first may be 0 (the planner's start state: the current reference is the start instead);
+        positions (k, n), NaN in the columns of joints to hold; optional velocities/accelerations (k, n).
+        Starts from the reference sampled at its start; a start in the future is pending; points already
+        due are dropped (all due: ArgumentError naming times). limits: (lower, upper, velocity, joints),
+        (n,) each, checked along the path (ArgumentError naming the joint, the point and the limit).
+        Returns the new trajectory."""
         times = validation.vector('times', times)
-        positions = validation.matrix('positions', positions, (times.shape[0], self.n))
+        positions = _rows_or_held('positions', positions, (times.shape[0], self.n))
         t_start = t_now if t_start is None else validation.scalar('t_start', t_start)
+        first = 0
+        if times.shape[0] and times[0] == 0.0:
+            first = 1
         if t_start < t_now:
-            keep = t_start + times > t_now
-            if not keep.any():
+            due = t_start + times <= t_now
+            first = max(first, int(np.count_nonzero(due)))
+            if first >= times.shape[0]:
                 raise ArgumentError('times', f'the trajectory ended {t_now - (t_start + times[-1]):.6g} s ago')
-            times, positions = t_start + times[keep] - t_now, positions[keep]
-            velocities = None if velocities is None else np.asarray(velocities, dtype=float)[keep]
-            accelerations = None if accelerations is None else np.asarray(accelerations, dtype=float)[keep]
-            t_start = t_now
-        traj = from_points(t_start, self._traj.sample(t_start), times, positions, velocities, accelerations)
-        if t_start > t_now:
+        if first >= times.shape[0]:
+            raise ArgumentError('points[0].time_from_start', 'a trajectory needs a point after 0 s')
+        keep = slice(first, None)
+        start = max(t_start, t_now)
+        times = t_start + times[keep] - start
+        rows = [None if a is None else np.asarray(a, dtype=float)[keep] for a in (velocities, accelerations)]
+        begin = self._traj.sample(start)
+        positions = _held_columns(positions[keep], begin[0])
+        rows = [None if a is None else _held_columns(a, 0.0) for a in rows]
+        traj = from_points(start, begin, times, positions, *rows)
+        if limits is not None:
+            check_limits(traj, *limits, first)
+        if start > t_now:
             self._pending = traj
         else:
             self._traj, self._pending = traj, None
-        return t_start
+        return traj
+
+    def hold(self, t, q):
+        """Hold q (n,) from time t on, at rest (a cancelled or aborted trajectory)."""
+        self._traj, self._pending = hold(q, t), None
 
     def set_force_target(self, t_now, f_target, t_start=None):
         """Ramp the force reference to f_target (k,) N over force_ramp_time from t_start (None or not
@@ -134,3 +153,44 @@ class References:
     def force_pending(self):
         """(t_start s, f_target (k,)) of a force target stamped ahead, or None."""
         return self._force_pending
+
+
+def _rows_or_held(name, value, shape):
+    """`value` as a float64 array of `shape`: finite, or NaN for a joint to hold; ArgumentError naming `name`."""
+    try:
+        rows = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ArgumentError(name, f'expected a {shape} matrix of numbers, got {value!r}') from exc
+    if rows.shape != tuple(shape):
+        raise ArgumentError(name, f'expected shape {tuple(shape)}, got {rows.shape}')
+    if np.isinf(rows).any():
+        raise ArgumentError(name, 'expected finite values (NaN: a joint to hold)')
+    return rows
+
+
+def _held_columns(rows, value):
+    """rows (k, n) with the NaN columns (joints a partial goal leaves out) set to `value` (scalar or (n,))."""
+    missing = np.isnan(rows)
+    if missing.any():
+        rows = np.where(missing, np.broadcast_to(value, rows.shape), rows)
+    return rows
+
+
+#: samples per segment when a path is checked against the joint limits
+LIMIT_SAMPLES = 16
+
+
+def check_limits(traj, lower, upper, velocity, joints, first=0):
+    """ArgumentError naming the first point and joint where the path leaves [lower, upper] (rad or m) or
+    exceeds |qd| <= velocity (rad/s or m/s), each (n,) (inf = none); points counted from `first`."""
+    knots = traj.knots
+    for k in range(len(knots) - 1):
+        for t in np.linspace(knots[k], knots[k + 1], LIMIT_SAMPLES + 1)[1:]:
+            q, qd, _ = traj.sample(t)
+            for what, bad, bound in (('position', q < lower, lower), ('position', q > upper, upper),
+                                     ('velocity', np.abs(qd) > velocity, velocity)):
+                if bad.any():
+                    j = int(np.flatnonzero(bad)[0])
+                    value = (q if what == 'position' else qd)[j]
+                    raise ArgumentError(f'points[{first + k}]', f'{joints[j]} {what} {value:.6g} beyond the '
+                                                                f'limit {bound[j]:g} on the way to this point')

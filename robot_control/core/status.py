@@ -1,7 +1,8 @@
 """What the controller reports on /diagnostics, as plain data (the node turns it into messages).
 
-Four statuses, each (name, level, message, values) with level 'OK' | 'WARN' | 'ERROR' and values
-(key, value) pairs: the joint_states watchdog, effort saturation, rejected inputs, the control law.
+Five statuses, each (name, level, message, values) with level 'OK' | 'WARN' | 'ERROR' and values
+(key, value) pairs: the joint_states watchdog, effort saturation, rejected inputs, the control law,
+the trajectory (its goal and path tolerances).
 """
 import dataclasses
 
@@ -39,10 +40,30 @@ class Counters:
 
 
 def controller_statuses(name, core, watchdog, age, counters):
-    """The four statuses of controller `name` (its core, StateWatchdog, the age of the last state in s
-    or None, Counters)."""
+    """The statuses of controller `name` (its core, StateWatchdog, the age of the last state in s or
+    None, Counters)."""
     return [_watchdog(name, core, watchdog, age, counters), _saturation(name, core),
-            _rejected(name, counters), _law(name, core, counters)]
+            _rejected(name, counters), _law(name, core, counters), _trajectory(name, core)]
+
+
+#: the level of each trajectory outcome: a path violation is an error, a missed goal a warning
+OUTCOME_LEVEL = {'': 'OK', 'succeeded': 'OK', 'cancelled': 'OK', 'missed': 'WARN', 'path': 'ERROR'}
+
+
+def _trajectory(name, core):
+    goal = core.goal
+    if goal.active:
+        message = f'following trajectory {goal.goals} (ends at t = {goal.t_end:.3f} s)'
+    elif goal.outcome:
+        message = f'trajectory {goal.goals} {goal.outcome}: {goal.reason}'
+    else:
+        message = 'no trajectory yet'
+    tol = core.config.tolerances
+    return (f'{name}: trajectory', 'OK' if goal.active else OUTCOME_LEVEL[goal.outcome], message,
+            [('goals', goal.goals), ('outcome', goal.outcome or ('executing' if goal.active else 'none')),
+             ('goal_time', tol.goal_time), ('stopped_velocity_tolerance', tol.stopped_velocity)]
+            + [(f'trajectory_tolerance.{j}', float(v)) for j, v in zip(core.config.joints, tol.trajectory)]
+            + [(f'goal_tolerance.{j}', float(v)) for j, v in zip(core.config.joints, tol.goal)])
 
 
 def _watchdog(name, core, watchdog, age, counters):

@@ -44,6 +44,16 @@ class RobotModel(ABC):
         """Per-joint effort limit, N m or N, shape (n,); inf where the model sets none."""
         return np.full(self.n, np.inf)
 
+    @property
+    def velocity_limit(self):
+        """Per-joint velocity limit, rad/s or m/s, (n,); inf where the model sets none."""
+        return np.full(self.n, np.inf)
+
+    @property
+    def position_limits(self):
+        """(lower, upper) per-joint position limits, rad or m, each (n,); -inf, inf where none."""
+        return np.full(self.n, -np.inf), np.full(self.n, np.inf)
+
     # -- checks at the edge --------------------------------------------------------------------
     def check_q(self, q, name='q'):
         """q as a finite float64 (n,) array, or ArgumentError naming `name`."""

@@ -118,6 +118,8 @@ class ControllerNode(Node):
         self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
         self._pending = None
         self._contact_trips = 0
+        self._goal_seen = None
+        self._allow_partial = bool(snapshot.values.get('allow_partial_joints_goal', False))
         self._make_messages(cfg)
         self._apply_references(snapshot.values, initial=True)
         self._make_interfaces(snapshot.values, cfg)
@@ -252,6 +254,8 @@ class ControllerNode(Node):
         """Bookkeeping of an answered state: watchdog, counts, ~/reference, ~/error, diagnostics."""
         recovered = self._watchdog.fresh(self.get_clock().now().nanoseconds, time.monotonic_ns())
         self._counters.commands_sent += 1
+        if self._core.goal.outcome:
+            self._report_goal()
         if recovered:
             self.get_logger().info('joint_states are back: restarting from the current state')
         guard = self._core.contact_guard
@@ -273,10 +277,17 @@ class ControllerNode(Node):
 
     # -- references --------------------------------------------------------------------------------
     def _on_trajectory(self, msg):
+        """A joint trajectory, as joint_trajectory_controller takes it (robot_control.core.references);
+        an empty one cancels the motion and holds the current position."""
         try:
-            goal = conversions.trajectory_goal(msg, self._joints)
+            goal = conversions.trajectory_goal(msg, self._joints, self._allow_partial)
             if not self._core.active:
                 raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
+            if goal.empty:
+                self._core.hold_position()
+                self._counters.trajectories_accepted += 1
+                self.get_logger().info('empty trajectory: motion cancelled, holding the current position')
+                return
             t0 = self._core.set_trajectory(goal.times, goal.positions, goal.velocities, goal.accelerations,
                                            t_start=self._timeline.time_of(goal.stamp_ns))
         except ValueError as exc:
@@ -285,6 +296,18 @@ class ControllerNode(Node):
         self._counters.trajectories_accepted += 1
         self.get_logger().info(f'trajectory accepted: {goal.times.shape[0]} points over {goal.times[-1]:g} s '
                                f'from t = {t0:.6f} s')
+
+    def _report_goal(self):
+        """Log a trajectory's outcome once (robot_control.core.tolerances) and put it on /diagnostics."""
+        goal = self._core.goal
+        seen = (goal.goals, goal.outcome)
+        if seen == self._goal_seen or not goal.outcome:
+            return
+        self._goal_seen = seen
+        log = self.get_logger()
+        {'succeeded': log.info, 'cancelled': log.info, 'missed': log.warning, 'path': log.error}[goal.outcome](
+            f'trajectory {goal.outcome}: {goal.reason}')
+        self._publish_diagnostics()
 
     def _on_wrench_reference(self, msg):
         """A force reference: at once (header.stamp zero or not ahead of the last state), or pending

@@ -195,75 +195,95 @@ def effort_array_values(msg):
 
 # -- trajectories ------------------------------------------------------------------------------
 class TrajectoryGoal:
-    """A validated JointTrajectory in controller order: all arrays float64, times in s.
+    """A checked JointTrajectory in controller order: float64 arrays, times in s.
 
-    stamp_ns: header.stamp (0 = start when received); times (k,) time_from_start, strictly
-    increasing and > 0; positions (k, n); velocities, accelerations (k, n) or None.
+    stamp_ns: header.stamp (0 = start when received); times (k,) time_from_start, increasing, the
+    first >= 0 (k = 0: an empty trajectory, which cancels the motion); positions (k, n), NaN in the
+    columns of joints the message leaves out (allow_partial_joints_goal); velocities, accelerations
+    (k, n) or None; given (n,) bool, the joints the message names.
     """
 
-    __slots__ = ('stamp_ns', 'times', 'positions', 'velocities', 'accelerations')
+    __slots__ = ('stamp_ns', 'times', 'positions', 'velocities', 'accelerations', 'given')
 
-    def __init__(self, stamp_ns, times, positions, velocities=None, accelerations=None):
+    def __init__(self, stamp_ns, times, positions, velocities=None, accelerations=None, given=None):
         self.stamp_ns = stamp_ns
         self.times = times
         self.positions = positions
         self.velocities = velocities
         self.accelerations = accelerations
+        self.given = np.ones(positions.shape[1], dtype=bool) if given is None else given
+
+    @property
+    def empty(self):
+        return self.times.shape[0] == 0
 
 
-def _point_field(points, field, n, order, required):
-    """(k, n) array of `field` from every point (reordered to the controller's joints), or None."""
+def _point_field(points, field, n, columns, required):
+    """(k, n) array of `field` from every point, in the controller's joint order (NaN in the columns of
+    joints the message does not name), or None when no point gives the field."""
+    names = len(columns)
     sizes = {len(getattr(p, field)) for p in points}
     if sizes == {0} and not required:
         return None
-    if sizes != {n}:
+    if sizes != {names}:
         for i, p in enumerate(points):
-            if len(getattr(p, field)) != n:
+            if len(getattr(p, field)) != names:
                 what = 'one entry per joint name' if required else 'none, or one entry per joint name in every point'
-                raise ArgumentError(f'points[{i}].{field}', f'expected {what} ({n}), got {len(getattr(p, field))}')
-    out = np.empty((len(points), n))
+                raise ArgumentError(f'points[{i}].{field}', f'expected {what} ({names}), got {len(getattr(p, field))}')
+    out = np.full((len(points), n), np.nan)
     for i, p in enumerate(points):
         row = np.asarray(getattr(p, field), dtype=float)
         if not np.isfinite(row).all():
             raise ArgumentError(f'points[{i}].{field}', f'not finite {row.tolist()}')
         if not _plausible(row):
             raise ArgumentError(f'points[{i}].{field}', f'implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
-        out[i] = row[order]
+        out[i, columns] = row
     return out
 
 
-def trajectory_goal(msg, joints):
-    """Validate a trajectory_msgs/JointTrajectory against `joints` -> TrajectoryGoal (joints order).
+def _times(points):
+    """time_from_start of every point, s: the first >= 0, each later one after the one before."""
+    times = np.array([duration_to_s(p.time_from_start) for p in points])
+    if times.size and times[0] < 0.0:
+        raise ArgumentError('points[0].time_from_start', f'expected >= 0 s, got {times[0]:g} s')
+    steps = np.diff(times)
+    if np.any(steps <= 0.0):
+        i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+        raise ArgumentError(f'points[{i}].time_from_start', f'not after points[{i - 1}] '
+                                                            f'({times[i]:g} s <= {times[i - 1]:g} s)')
+    return times
 
-    Like joint_trajectory_controller: names in any order but exactly the controlled set, at
-    least one point, time_from_start strictly increasing and > 0, finite values; velocities and
-    accelerations either absent from every point or given for every joint in every point.
+
+def trajectory_goal(msg, joints, allow_partial=False):
+    """Check a trajectory_msgs/JointTrajectory against `joints` -> TrajectoryGoal (joints order).
+
+    Like joint_trajectory_controller: names in any order, no unknown or duplicate name, every
+    controlled joint named unless allow_partial (the others then hold); time_from_start increasing,
+    the first point may be at 0 s (a planner's current state); finite values; velocities and
+    accelerations either absent from every point or given for every named joint in every point.
+    No points: an empty trajectory (cancel the motion, hold the current position).
     """
     joints = tuple(joints)
     names = list(msg.joint_names)
     if len(set(names)) != len(names):
         raise ArgumentError('joint_names', f'duplicate names in {names}')
-    if set(names) != set(joints):
-        unknown = sorted(set(names) - set(joints))
-        missing = sorted(set(joints) - set(names))
-        raise ArgumentError('joint_names', f'unknown {unknown}, missing {missing} (controlled joints {list(joints)})')
+    unknown = sorted(set(names) - set(joints))
+    missing = sorted(set(joints) - set(names))
+    if unknown or (missing and not allow_partial):
+        raise ArgumentError('joint_names', f'unknown {unknown}, missing {missing} (controlled joints {list(joints)}'
+                                           f'{"" if allow_partial else "; allow_partial_joints_goal is false"})')
     points = msg.points
-    if not points:
-        raise ArgumentError('points', 'empty trajectory')
     n = len(joints)
-    order = np.array([names.index(j) for j in joints], dtype=np.intp)
-    times = np.array([duration_to_s(p.time_from_start) for p in points])
-    if not times[0] > 0.0:
-        raise ArgumentError('points[0].time_from_start', f'expected > 0 s, got {times[0]:g} s')
-    steps = np.diff(times)
-    if np.any(steps <= 0.0):
-        i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
-        raise ArgumentError(f'points[{i}].time_from_start', f'not after points[{i - 1}] '
-                         f'({times[i]:g} s <= {times[i - 1]:g} s)')
-    positions = _point_field(points, 'positions', n, order, required=True)
-    velocities = _point_field(points, 'velocities', n, order, required=False)
-    accelerations = _point_field(points, 'accelerations', n, order, required=False)
-    return TrajectoryGoal(stamp_to_ns(msg.header.stamp), times, positions, velocities, accelerations)
+    columns = np.array([joints.index(name) for name in names], dtype=np.intp)
+    given = np.zeros(n, dtype=bool)
+    given[columns] = True
+    times = _times(points)
+    positions = _point_field(points, 'positions', n, columns, required=True) if points else np.zeros((0, n))
+    velocities = _point_field(points, 'velocities', n, columns, required=False) if points else None
+    accelerations = _point_field(points, 'accelerations', n, columns, required=False) if points else None
+    if accelerations is not None and velocities is None:
+        raise ArgumentError('points[0].accelerations', 'given without velocities')
+    return TrajectoryGoal(stamp_to_ns(msg.header.stamp), times, positions, velocities, accelerations, given)
 
 
 def joint_trajectory(joints, times, positions, velocities=None, accelerations=None, stamp_ns=0):

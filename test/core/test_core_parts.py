@@ -148,12 +148,16 @@ def test_the_statuses_report_watchdog_saturation_rejections_and_the_law():
     statuses = controller_statuses('controller', core, dog, None, counters)
     names = [s[0] for s in statuses]
     assert names == ['controller: joint_states watchdog', 'controller: effort saturation',
-                     'controller: rejected inputs', 'controller: control law']
+                     'controller: rejected inputs', 'controller: control law', 'controller: trajectory']
     levels = {s[0].split(': ')[1]: s[1] for s in statuses}
     assert levels == {'joint_states watchdog': 'WARN', 'effort saturation': 'WARN', 'rejected inputs': 'WARN',
-                      'control law': 'OK'}
+                      'control law': 'OK', 'trajectory': 'OK'}
     assert "saturated: ['theta1']" in statuses[1][2] and 'position: not finite' in statuses[2][2]
     dog.fresh(0, 0)
     dog.check(0, 10 ** 9)
     assert controller_statuses('controller', core, dog, 1.0, counters)[0][1] == 'ERROR'
     assert math.isclose(dict(statuses[1][3])['effort_limit.theta1'], 5.0)
+    core.goal.start(1.0)
+    core.goal.check(0.5, np.zeros(2), np.zeros(2), np.ones(2), core.config.replace(trajectory_tolerance=0.1).tolerances)
+    trajectory = controller_statuses('controller', core, dog, 1.0, counters)[4]
+    assert trajectory[1] == 'ERROR' and 'trajectory 1 path: trajectory tolerance exceeded' in trajectory[2]
