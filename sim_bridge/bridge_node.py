@@ -274,8 +274,11 @@ class SimBridge(Node):
         return [self.count_publishers(sub.topic_name) for sub in self._subs]
 
     def _log(self, level, text):
-        logger = self.get_logger()
-        (logger.warning if level == 'warning' else logger.info)(text)
+        # one call site per severity: rclpy's logger refuses a second severity from the same line
+        if level == 'warning':
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
 
     # -- in: messages, timers, services ----------------------------------------------------------
     def _on_joint_command(self, data):
