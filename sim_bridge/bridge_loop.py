@@ -39,6 +39,7 @@ achieved_real_time_factor, overruns, deadline hits and misses, latency percentil
 topic, publisher_conflicts) and `brakes` (engaged, reason, events). The node publishes them every
 diagnostics_period and the loop asks for them at once when the brakes change or on pause/resume.
 """
+import abc
 import dataclasses
 import time
 
@@ -71,7 +72,7 @@ class Status:
     values: dict
 
 
-class BridgeLoop:
+class BridgeLoop(abc.ABC):
     """The bridge's decisions over `world` (a sim_bridge.world.World) for `cfg` (a validated
     sim_bridge.parameters.BridgeConfig): the parts both modes share. Make one with `make_loop`.
 
@@ -134,6 +135,27 @@ class BridgeLoop:
         """Count the publishers, start pacing at the World's time and publish its first state."""
         self.refresh_publisher_counts()
         self._restart()
+
+    # -- what each mode does --------------------------------------------------------------------
+    @abc.abstractmethod
+    def on_joint_command(self, stamp_ns, names, efforts):
+        """A JointState command: header stamp (int ns), joint names (list of str), efforts (n floats)."""
+
+    @abc.abstractmethod
+    def on_array_command(self, values):
+        """An effort array command: n floats in `cfg.joints` order."""
+
+    @abc.abstractmethod
+    def on_timer(self):
+        """The node's pacing timer fired."""
+
+    @abc.abstractmethod
+    def _resume(self):
+        """Continue after a pause."""
+
+    @abc.abstractmethod
+    def _pacing(self):
+        """(level, message, {key: value}) of the mode's pacing, for diagnostics."""
 
     def configure(self, cfg):
         """Apply a new BridgeConfig: command_timeout and the disturbance (realtime also the real-time
@@ -216,9 +238,6 @@ class BridgeLoop:
         self._publish_diagnostics()
         return message
 
-    def _resume(self):
-        raise NotImplementedError
-
     def reset(self):
         """Rebuild the World at t = 0 (the disturbance stays), forget the command and the message
         history, restart pacing and publish the first state; returns the message for the caller."""
@@ -257,10 +276,6 @@ class BridgeLoop:
             message += ', paused'
         self.refresh_publisher_counts()
         return [Status('pacing', level, message, values), self._commands_status(t), self._brakes_status()]
-
-    def _pacing(self):
-        """(level, message, {key: value}) of the mode's pacing."""
-        raise NotImplementedError
 
     def _commands_status(self, t):
         m, guard = self.mapper, self._guard
@@ -304,7 +319,8 @@ class LockstepLoop(BridgeLoop):
         self._pending = None              # (names or None, efforts, ok): the answer received while paused
 
     def on_joint_command(self, stamp_ns, names, efforts):
-        """A JointState command: header stamp (int ns), joint names (list of str), efforts (n floats)."""
+        """Only the stamp of the latest state steps the World; a late stamp (a state answered twice) makes
+        the loop count the publishers at once."""
         t = self.world.t_ns
         verdict = self.gate.classify(stamp_ns)
         if verdict != LockstepGate.MATCH:
@@ -319,7 +335,7 @@ class LockstepLoop(BridgeLoop):
         self._answer(self.mapper.map_named(names, efforts), ok)
 
     def on_array_command(self, values):
-        """An effort array command (n floats in `cfg.joints` order): answers the latest state."""
+        """An array has no stamp: it answers the latest state."""
         ok = self._guard.check(ARRAY, self.world.t_ns)
         if self._paused:
             self._pending = (None, values, ok)
@@ -390,7 +406,7 @@ class RealtimeLoop(BridgeLoop):
             self._pacer.set_real_time_factor(cfg.real_time_factor, self._clock(), self.ticks)
 
     def on_joint_command(self, stamp_ns, names, efforts):
-        """A JointState command: header stamp (int ns), joint names (list of str), efforts (n floats)."""
+        """Held until the next valid one; the deadline meter times its answer to the latest state."""
         ok = self._guard.check(JOINT_STATE, self.world.t_ns, stamp_ns)
         reason = self.mapper.map_named(names, efforts)
         if reason is None and ok:
@@ -398,7 +414,7 @@ class RealtimeLoop(BridgeLoop):
         self._command(reason, ok)
 
     def on_array_command(self, values):
-        """An effort array command: n floats in `cfg.joints` order."""
+        """Held until the next valid one."""
         ok = self._guard.check(ARRAY, self.world.t_ns)
         self._command(self.mapper.map_array(values), ok)
 
