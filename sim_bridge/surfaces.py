@@ -6,8 +6,8 @@ changeDynamics(contactStiffness=k_e, contactDamping=b_e, lateralFriction=0) and 
 carries a single collision sphere of radius r centred on the tip frame origin (the closed-form
 URDFs already have one; for other URDFs the tip's collision shapes are replaced by it). The box
 face sits r beyond x_e, so contact begins exactly when the tip frame reaches x_e. With
-contactSlop = 0 the steady-state contact force is k_e times the penetration to solver precision
-(measured: < 0.01 %). Every robot-surface contact point counts in the wrench.
+contactSlop = 0 the steady-state contact force is k_e times the penetration to solver
+precision. Every robot-surface contact point counts in the wrench.
 """
 import os
 import tempfile

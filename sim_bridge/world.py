@@ -1,4 +1,4 @@
-"""The PyBullet world: the "real robot" of every scenario (DESIGN §3, §5). No rclpy, no messages.
+"""The PyBullet world: the "real robot" of every scenario. No rclpy, no messages.
 
     M(q) qdd + C(q, qd) qd + g(q) = tau + tau_env,   tau = clip(command, effort limits)
 
@@ -6,7 +6,7 @@ tau_env holds what the world adds: the mass-spring's -k x^3 - b xd, contact with
 and the configured disturbance. Units SI (rad, m, N m, N, s); time is kept as integer
 nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True).
 
-PyBullet facts respected (DESIGN §5): URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
+PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
 base; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
 (default 0.04) and URDF joint damping zeroed; the torque is re-sent before every stepSimulation
 (PyBullet clears applied torques after each step); fixed step dt without substeps.

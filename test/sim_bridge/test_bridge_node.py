@@ -113,6 +113,7 @@ def test_bad_effort_array_is_rejected(harness):
     h.probe.pub_array.publish(Float64MultiArray(data=[1.0, 2.0, 3.0]))
     assert h.spin_until(lambda: h.bridge.world.t_ns >= MS)    # the answer completes the handshake
     assert h.bridge.rejected['length'] == 1 and h.bridge.brake_reason == 'no valid command yet'
+    assert h.pause(True).success        # the loop's log lines of both severities reach the node's logger
 
 
 def test_custom_urdf_with_a_joint_list(harness):
