@@ -32,15 +32,31 @@ resolve_urdf = urdf_files.resolve
 def _parse(xml, where):
     """Pinocchio model of URDF text; ArgumentError naming `urdf` on anything malformed."""
     try:
-        root = ET.fromstring(xml)
+        root = ET.fromstring(xml.lstrip())   # urdfdom, like PyBullet, allows blank lines before <?xml ...?>
     except ET.ParseError as exc:
         raise ArgumentError('urdf', f'{where} is not well-formed XML: {exc}') from None
     if root.tag != 'robot':
         raise ArgumentError('urdf', f'{where} has root element <{root.tag}>, expected <robot>')
     try:
-        return pin.buildModelFromXML(xml)
+        model = pin.buildModelFromXML(xml)
     except (ValueError, RuntimeError) as exc:
         raise ArgumentError('urdf', f'{where} is not a valid URDF: {exc}') from None
+    _rename_joint_frames(model)
+    return model
+
+
+def _rename_joint_frames(model):
+    """Rename the frame of a joint that shares its link's name to '<name> (joint)', in place.
+
+    URDF keeps link and joint names apart (minitaur has a fixed joint named like a link), but
+    Pinocchio's buildReducedModel looks frames up by name alone and fails on such a pair. Joints
+    keep their names (model.names); only the joint's frame is renamed, the link's stays.
+    """
+    joint_types = (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT)
+    for i, frame in enumerate(model.frames):
+        if frame.type in joint_types and model.existFrame(frame.name, pin.FrameType.BODY):
+            frame.name = f'{frame.name} (joint)'
+            model.frames[i] = frame
 
 
 def _is_continuous(jm):
@@ -103,9 +119,11 @@ class UrdfModel(RobotModel):
     urdf: file path, URDF XML text, or a name robot_control.urdf.resolve knows ('kuka_iiwa/model.urdf').
     joints: joint names in the order of every joint-space vector (default: all movable joints
       in URDF tree order). Revolute, prismatic and continuous joints can be selected.
-    tip: frame (link) name for fk/J/Jdot_qd; None -> no task space.
+    tip: frame (link) name for fk/J/Jdot_qd; None -> no task space. A joint named like a link
+      keeps the link's name for the link: its own frame is '<name> (joint)'.
     q_locked: positions of the other joints, a mapping {name: position} (rad or m; unnamed
-      ones at neutral), or a full Pinocchio configuration (length of the URDF's nq).
+      ones at neutral), or a full Pinocchio configuration (length of the URDF's nq, unit
+      (cos, sin) pairs and quaternions).
     gravity: world gravity vector, m/s^2.
     """
 
@@ -117,8 +135,7 @@ class UrdfModel(RobotModel):
         movable = tuple(full.names[1:])
         joints = _selected(full, movable, joints)
         q_ref = _reference(full, movable, joints, q_locked)
-        lock = [full.getJointId(n) for n in movable if n not in joints]
-        model = pin.buildReducedModel(full, lock, q_ref) if lock else full
+        model = _reduced(full, [n for n in movable if n not in joints], q_ref)
         model.gravity = pin.Motion(gravity, np.zeros(3))
 
         self.joint_names = joints
@@ -141,8 +158,9 @@ class UrdfModel(RobotModel):
         lower, upper = np.full(len(joints), -np.inf), np.full(len(joints), np.inf)
         for k, name in enumerate(joints):
             jm = model.joints[model.getJointId(name)]
-            if not _is_continuous(jm):
-                lower[k], upper[k] = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            if not _is_continuous(jm) and lo < hi:
+                lower[k], upper[k] = lo, hi
         self._lower, self._upper = lower, upper
 
     # -- limits ------------------------------------------------------------------------------
@@ -158,7 +176,10 @@ class UrdfModel(RobotModel):
 
     @property
     def position_limits(self):
-        """(lower, upper) URDF position limits per joint, rad or m, each (n,); -inf, inf for continuous joints."""
+        """(lower, upper) URDF position limits per joint, rad or m, each (n,).
+
+        -inf, inf for continuous joints and where the URDF sets no range: lower >= upper, which is
+        PyBullet's "no limit" (lower > upper) or a <limit> without lower and upper (read as 0, 0)."""
         return self._lower.copy(), self._upper.copy()
 
     # -- the equations (RobotModel): one Pinocchio call each ------------------------------------
@@ -250,6 +271,8 @@ def _limit(values):
 
 def _selected(full, movable, joints):
     """The selected joint names, checked: known, unique, each 1-DOF (revolute, prismatic, continuous)."""
+    if not movable:
+        raise ArgumentError('joints', 'the URDF has no movable joint: all its joints are fixed')
     if isinstance(joints, str):
         joints = (joints,)
     if joints is None:
@@ -277,7 +300,11 @@ def _reference(full, movable, joints, q_locked):
     if q_locked is None:
         return q_ref
     if not isinstance(q_locked, Mapping):
-        return validation.vector('q_locked', q_locked, full.nq).copy()
+        q_ref = validation.vector('q_locked', q_locked, full.nq).copy()
+        if not pin.isNormalized(full, q_ref, 1e-9):
+            raise ArgumentError('q_locked', "a full configuration holds a unit (cos, sin) pair per continuous "
+                                            'joint and unit quaternions; pinocchio.normalize(model, q) makes them so')
+        return q_ref
     for name, value in q_locked.items():
         if name not in movable:
             raise ArgumentError('q_locked', f'unknown joint {name!r}; the URDF\'s movable joints are {list(movable)}')
@@ -292,6 +319,18 @@ def _reference(full, movable, joints, q_locked):
         else:
             raise ArgumentError('q_locked', f'{name!r} is a {jm.shortname()}; give a full configuration instead')
     return q_ref
+
+
+def _reduced(full, locked, q_ref):
+    """The model with the joints named `locked` fixed at q_ref (pin.buildReducedModel); ArgumentError
+    naming `joints` (the selection decides what is locked) when Pinocchio cannot build it."""
+    if not locked:
+        return full
+    try:
+        return pin.buildReducedModel(full, [full.getJointId(name) for name in locked], q_ref)
+    except (ValueError, RuntimeError) as exc:
+        raise ArgumentError('joints', f'Pinocchio cannot lock the unselected joints {locked}: {exc}; '
+                                      'select them too') from None
 
 
 def _frame(model, tip):

@@ -13,35 +13,11 @@ import pytest
 from robot_control.gains import ServoGains, design, pd_steady_state_error
 from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, spring_force
 from robot_control.models import make_model
+from loop_helpers import critically_damped, integrate, joint_space_loop, rk4_step
 
 W_N = 6.0
 PD = ServoGains.uniform(2, W_N ** 2, 2 * W_N)
 DT = 1e-3
-
-
-def rk4_step(rhs, t, y, dt):
-    """One classical Runge-Kutta step of y' = rhs(t, y)."""
-    k1 = rhs(t, y)
-    k2 = rhs(t + dt / 2, y + dt / 2 * k1)
-    k3 = rhs(t + dt / 2, y + dt / 2 * k2)
-    k4 = rhs(t + dt, y + dt * k3)
-    return y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-
-
-def integrate(rhs, y0, t_end, dt=DT):
-    """Times (k,) and states (k, len(y0)) of y' = rhs(t, y) on a fixed grid from t = 0."""
-    steps = int(round(t_end / dt))
-    ts, ys = np.arange(steps + 1) * dt, np.empty((steps + 1, len(y0)))
-    ys[0] = y0
-    for i in range(steps):
-        ys[i + 1] = rk4_step(rhs, ts[i], ys[i], dt)
-    return ts, ys
-
-
-def critically_damped(e0, ed0, w_n, t):
-    """e(t) = (e0 + (ed0 + w_n e0) t) exp(-w_n t), t (k,) -> (k, len(e0))."""
-    t = np.asarray(t)[:, None]
-    return (e0 + (ed0 + w_n * e0) * t) * np.exp(-w_n * t)
 
 
 def quintic(q0, q1, T, t):
@@ -55,17 +31,6 @@ def quintic(q0, q1, T, t):
 def sinusoid(center, amp, w, t):
     """center + amp sin(w t) and its two derivatives."""
     return (center + amp * np.sin(w * t), amp * w * np.cos(w * t), -amp * w * w * np.sin(w * t))
-
-
-def joint_space_loop(model, reference, gains):
-    """y = [q, qd]; qdd = FD(q, qd, computed_torque(...)) with the reference (q_d, qd_d, qdd_d)(t)."""
-    n = model.n
-
-    def rhs(t, y):
-        q, qd = y[:n], y[n:]
-        tau = computed_torque(model, q, qd, *reference(t), gains)
-        return np.concatenate([qd, model.forward_dynamics(q, qd, tau)])
-    return rhs
 
 
 REFERENCES = {
