@@ -119,6 +119,7 @@ class ControllerNode(Node):
         self._pending = None
         self._contact_trips = 0
         self._goal_seen = None
+        self._first_state_ns = None
         self._allow_partial = bool(snapshot.values.get('allow_partial_joints_goal', False))
         self._make_messages(cfg)
         self._apply_references(snapshot.values, initial=True)
@@ -205,6 +206,8 @@ class ControllerNode(Node):
         decoder declines (e.g. big-endian CDR from another vendor)."""
         msg = self._state_decoder.decode(data)
         msg = deserialize_message(data, JointState) if msg is None else msg
+        if self._first_state_ns is None:
+            self._first_state_ns = conversions.stamp_to_ns(msg.header.stamp)
         if self._ft_sub is None:
             self._answer(msg)
             return
@@ -254,6 +257,10 @@ class ControllerNode(Node):
         """Bookkeeping of an answered state: watchdog, counts, ~/reference, ~/error, diagnostics."""
         recovered = self._watchdog.fresh(self.get_clock().now().nanoseconds, time.monotonic_ns())
         self._counters.commands_sent += 1
+        if self._counters.commands_sent == 1:
+            self.get_logger().info(f'loop closed: the first command answers the state stamped '
+                                   f'{units.seconds(stamp_ns):.3f} s (first state received: '
+                                   f'{units.seconds(self._first_state_ns):.3f} s)')
         if self._core.goal.outcome:
             self._report_goal()
         if recovered:
