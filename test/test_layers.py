@@ -19,6 +19,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core']
 NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
          'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.ros.throttle',
+         'robot_control.ros.param_table',
          'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.loop']
 PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces'}
 
