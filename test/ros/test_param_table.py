@@ -1,12 +1,15 @@
-"""The parameter table without rclpy: rows, rules, stages, error mapping, rendering
-(robot_control.ros.param_table)."""
+"""The parameter table without rclpy: rows, rules, stages, error mapping, rendering, and the two
+nodes' tables (robot_control.ros.param_table, robot_control.ros.params, sim_bridge.parameters)."""
 import math
 
 import pytest
 
+from robot_control import scenarios
+from robot_control.ros import params
 from robot_control.ros.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt, lt_eq, markdown,
                                            not_empty, one_of, size, subset_of, unique)
 from robot_control.validation import ArgumentError
+from sim_bridge import parameters as bridge_params
 
 
 def _rejects(row, value, values, match):
@@ -171,3 +174,33 @@ def test_markdown_rows_render_defaults_rules_and_run_time_setting():
     text = markdown(rows)
     assert text.splitlines()[0] == '| parameter | type | default | meaning, units | bounds | set at run time |'
     assert '| robot | string | \'small\' | - | small \\| big | no |' in text
+
+
+# -- the nodes' tables -------------------------------------------------------------------------------------
+@pytest.mark.parametrize('table', [params.TABLE, bridge_params.TABLE], ids=['controller', 'sim_bridge'])
+@pytest.mark.parametrize('scenario', sorted(scenarios.SCENARIOS))
+def test_every_row_is_described_and_every_scenario_default_passes_its_rules(table, scenario):
+    rows, values = table.resolve(lambda row: scenario if row.name == 'scenario' else row.default)
+    for row in rows:
+        assert row.description, row.name
+    assert values['scenario'] == scenario
+
+
+def test_the_controller_scenario_fills_the_defaults():
+    d = params.TABLE.defaults(scenario='iiwa')
+    sc = scenarios.get('iiwa')
+    assert (d['model'], d['joints'], d['urdf'], d['tip']) == ('urdf', sc.joints, sc.urdf, sc.tip)
+    assert (d['force_axes'], d['k_e'], d['x_e']) == (('z',), (20000.0,), (0.25,))
+    assert d['model_params.gravity'] == 9.81 and 'model_params.m' not in d
+    polar = params.TABLE.defaults()
+    assert (polar['scenario'], polar['model'], polar['joints']) == ('', 'polar_two_link', ('theta1', 'r'))
+    assert (polar['model_params.m'], polar['model_params.gravity']) == (2.0, 9.81)
+
+
+def test_the_controllers_model_arguments_answer_to_their_own_names():
+    rows, _ = params.TABLE.resolve(lambda row: 'planar_two_link' if row.name == 'scenario' else row.default)
+    assert rows.parameter_of('l1') == 'model_params.l1' and rows.parameter_of('m2') == 'model_params.m2'
+    with pytest.raises(ParameterError, match='^model_params.l1: expected a positive number'):
+        params.TABLE.validate({'scenario': 'planar_two_link', 'model_params.l1': 0.0})
+    with pytest.raises(ParameterError, match="^force_axes: \\['q'\\] not among the model's task axes"):
+        params.TABLE.validate({'force_axes': ['q']})
