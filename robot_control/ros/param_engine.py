@@ -70,7 +70,7 @@ class ParameterNode(Node):
         if self.__overrides is None:
             self.destroy_node()
             raise RuntimeError('rclpy did not pass the parameter overrides to declare_parameters(); '
-                               'ParameterNode needs an rclpy that does (Humble to Jazzy)')
+                               'ParameterNode needs an rclpy that does (Jazzy\'s rclpy 7 does)')
 
     @property
     def start_up_overrides(self):
