@@ -32,15 +32,10 @@ import time
 
 import numpy as np
 import rclpy
-import rclpy.executors
 import rclpy.utilities
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import InvalidParameterTypeException, ParameterException, ParameterUninitializedException
-from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -48,11 +43,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from robot_control.validation import ArgumentError
-from robot_control import units
+from robot_control import scenarios, units
 from robot_control.ros import cdr, conversions, spin
-from robot_control import scenarios
+from robot_control.ros.param_engine import ParameterEngine, ParameterNode
+from robot_control.ros.param_table import ParameterError
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
+from robot_control.validation import ArgumentError
 from sim_bridge import parameters as bridge_params
 from sim_bridge.bridge_loop import COMMAND_TOPICS, make_loop
 
@@ -60,25 +56,6 @@ stamp_ns = units.stamp_ns
 #: /clock: reliable (also serves rclpy's and rclcpp's best-effort clock subscriptions), newest only
 CLOCK_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)  # deep: see qos.CONTROL_PUB_QOS
 GRAPH_PERIOD = 0.1    # s of wall time between publisher counts on the command topics
-
-_TYPES = {'bool': Parameter.Type.BOOL, 'double': Parameter.Type.DOUBLE, 'string': Parameter.Type.STRING,
-          'double_array': Parameter.Type.DOUBLE_ARRAY, 'string_array': Parameter.Type.STRING_ARRAY}
-
-
-_KIND_TEXT = {'bool': 'a bool', 'double': 'a double', 'string': 'a string', 'double_array': 'a list of doubles',
-              'string_array': 'a list of strings'}
-
-
-class BridgeParameterError(ValueError):
-    """A bad start-up parameter; the message starts with its name."""
-
-
-def _plain(value):
-    """Parameter value -> plain Python (arrays as lists)."""
-    if isinstance(value, (list, tuple)) or hasattr(value, 'tolist'):
-        return list(value)
-    return value
-
 
 def make_world(cfg):
     """The World for a validated BridgeConfig (the only place that knows World's signature)."""
@@ -95,18 +72,26 @@ def make_world(cfg):
                  disturbance=dist)
 
 
-class SimBridge(Node):
-    """The bridge node; `**kwargs` go to Node (context, parameter_overrides, cli_args, ...)."""
+class SimBridge(ParameterNode):
+    """The bridge node; `**kwargs` go to Node (context, parameter_overrides, cli_args, ...).
+
+    Raises ParameterError naming the parameter when the start-up parameters are invalid.
+    """
 
     def __init__(self, node_name='sim_bridge', *, world_factory=make_world, **kwargs):
         super().__init__(node_name, **kwargs)
         self._world = None
-        self._values = {}
-        self.cfg = self._declare_parameters()
         try:
-            self._world = world_factory(self.cfg)
-        except ValueError as exc:
-            raise BridgeParameterError(str(exc)) from None
+            self._params = ParameterEngine(self, bridge_params.TABLE, bridge_params.build,
+                                           apply=self._apply_parameters)
+            self.cfg = self._params.current.config
+            try:
+                self._world = world_factory(self.cfg)
+            except ArgumentError as exc:        # the World's argument names, mapped to the parameters
+                raise self._params.error(exc) from None
+        except BaseException:
+            self.destroy_node()
+            raise
         cfg = self.cfg
         self.joint_names = tuple(cfg.joints)
         self._make_messages(cfg)
@@ -121,9 +106,6 @@ class SimBridge(Node):
             self._pace_timer = self.create_timer(cfg.lockstep_timeout / 4.0, self._loop.on_timer, clock=steady)
         else:
             self._pace_timer = self.create_timer(self._realtime_timer_period(), self._loop.on_timer, clock=steady)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.add_post_set_parameters_callback(self._after_set_parameters)
-        self._pending_cfg = None
         self._loop.start()
         self.get_logger().info(
             f'{cfg.scenario or cfg.urdf}: {cfg.n} joints {list(self.joint_names)}, {cfg.mode}, physics step '
@@ -157,63 +139,11 @@ class SimBridge(Node):
         self.create_service(SetBool, '~/pause', self._on_pause)
 
     # -- parameters ---------------------------------------------------------------------------
-    def _declare(self, spec):
-        desc = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
-        try:
-            if spec.default is None:
-                self.declare_parameter(spec.name, _TYPES[spec.kind], desc)
-            else:
-                self.declare_parameter(spec.name, spec.default, desc)
-            value = self.get_parameter(spec.name).value
-        except ParameterUninitializedException:
-            raise BridgeParameterError(f'{spec.name}: required for this robot') from None
-        except InvalidParameterTypeException as exc:
-            got = self._parameter_overrides.get(spec.name)
-            got = f'{got.value!r} ({got.type_.name.lower()})' if got is not None else str(exc)
-            raise BridgeParameterError(f'{spec.name}: expected {_KIND_TEXT[spec.kind]}, got {got}; '
-                                       'YAML doubles need a decimal point, e.g. 1.0') from None
-        except ParameterException as exc:
-            raise BridgeParameterError(f'{spec.name}: {exc}') from None
-        self._values[spec.name] = _plain(value)
-        return self._values[spec.name]
-
-    def _declare_parameters(self):
-        try:
-            for spec in bridge_params.robot_specs():
-                self._declare(spec)
-            scenario = bridge_params.check_scenario(self._values['scenario'])
-            joints = bridge_params.check_joints(self._declare(bridge_params.joints_spec(scenario)))
-            for spec in bridge_params.specs(scenario, len(joints)):
-                self._declare(spec)
-            known = set(self._parameters)
-            unknown = sorted(set(self._parameter_overrides) - known)
-            if unknown:
-                raise ArgumentError(unknown[0], f'unknown parameter of {self.get_name()} '
-                                 f'(known: {sorted(self._values)})')
-            return bridge_params.validate(self._values)
-        except BridgeParameterError:
-            raise
-        except ValueError as exc:
-            raise BridgeParameterError(str(exc)) from None
-
-    def _on_set_parameters(self, params):
-        values = dict(self._values)
-        for p in params:
-            if p.name in values:
-                values[p.name] = _plain(p.value)
-        try:
-            self._pending_cfg = (bridge_params.validate(values), values)
-        except ValueError as exc:
-            return SetParametersResult(successful=False, reason=str(exc))
-        return SetParametersResult(successful=True)
-
-    def _after_set_parameters(self, params):
-        if self._pending_cfg is None:
-            return
-        old = self.cfg
-        self.cfg, self._values = self._pending_cfg
-        self._pending_cfg = None
-        cfg = self.cfg
+    def _apply_parameters(self, old, new, changed):
+        """After the engine committed a run-time change: the new BridgeConfig in force (`old`, `new`:
+        Snapshots before and after)."""
+        old, cfg = old.config, new.config
+        self.cfg = cfg
         self._loop.configure(cfg)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         if cfg.diagnostics_period != old.diagnostics_period:
@@ -352,7 +282,7 @@ def main(args=None):
     """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`; returns the exit code."""
     argv = sys.argv if args is None else args
     opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    return spin.run_node(argv, SimBridge, opts.executor, startup_errors=(BridgeParameterError,),
+    return spin.run_node(argv, SimBridge, opts.executor, startup_errors=(ParameterError,),
                          startup_message='bad parameter:', startup_code=2)
 
 

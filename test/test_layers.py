@@ -15,12 +15,13 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: the rclpy-free layers: the library, the control core, the simulated world and the bridge's loop
-#: (whole subpackages), plus the named modules beside them
+#: (whole subpackages), plus the named modules beside them (the parameter tables among them)
 PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core']
 NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
          'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.ros.throttle',
+         'robot_control.ros.param_table', 'robot_control.ros.params', 'robot_control.ros.controller_config',
          'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.loop',
-         'sim_bridge.bridge_loop']
+         'sim_bridge.bridge_loop', 'sim_bridge.parameters']
 PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces'}
 
 

@@ -47,8 +47,11 @@ joint_states is taken as serialized bytes and read by robot_control.ros.cdr (rcl
 that declines, e.g. big-endian CDR); the command is written as serialized bytes too. Only reading
 the state, the law and the publish run before the command goes out; the bookkeeping follows.
 
-Parameters: robot_control.ros.params (declared once, checked in the on-set callback, whose reason
-names the parameter, and applied in the post-set callback by swapping the core's configuration).
+Parameters: the table robot_control.ros.params, declared and checked by the parameter engine
+(robot_control.ros.param_engine: one on-set callback whose reason names the parameter), built into
+a ControllerConfig by robot_control.ros.controller_config, applied after the engine committed it by
+swapping the core's configuration snapshot; nothing reads the parameter server per tick.
+A start-up parameter the controller does not have is refused.
 
 Run: python -m robot_control.ros.controller_node --ros-args --params-file config/polar_two_link.yaml
 """
@@ -59,9 +62,7 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -74,7 +75,10 @@ from robot_control.core.status import Counters, controller_statuses, needs_wrenc
 from robot_control.core.timeline import Timeline
 from robot_control.core.watchdog import StateWatchdog
 from robot_control.ros import cdr, conversions, spin
-from robot_control.ros.params import ControllerParameters, ParameterError
+from robot_control.ros import params
+from robot_control.ros.controller_config import ConfigBuilder
+from robot_control.ros.param_engine import ParameterEngine, ParameterNode
+from robot_control.ros.param_table import ParameterError
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.ros.throttle import Throttle
 from robot_control.validation import ArgumentError
@@ -89,7 +93,7 @@ MIN_WATCHDOG_PERIOD = 0.001
 WARN_THROTTLE = 1.0
 
 
-class ControllerNode(Node):
+class ControllerNode(ParameterNode):
     """The robot_control controller (any law of robot_control.laws.LAWS) over ROS 2 topics.
 
     kwargs go to rclpy.node.Node (context=, parameter_overrides=, cli_args=, ...). Raises
@@ -105,7 +109,7 @@ class ControllerNode(Node):
             raise
 
     def _setup(self):
-        self._params = ControllerParameters(self)
+        self._params = ParameterEngine(self, params.TABLE, ConfigBuilder(), apply=self._apply_parameters)
         snapshot = self._params.current
         cfg = snapshot.config
         self._core = ControllerCore(cfg)
@@ -116,17 +120,13 @@ class ControllerNode(Node):
         self._watchdog = StateWatchdog(snapshot.values['state_timeout'])
         self._pairing = WrenchPairing()
         self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
-        self._pending = None
         self._contact_trips = 0
         self._goal_seen = None
         self._first_state_ns = None
-        self._allow_partial = bool(snapshot.values.get('allow_partial_joints_goal', False))
+        self._allow_partial = snapshot.values['allow_partial_joints_goal']
         self._make_messages(cfg)
         self._apply_references(snapshot.values, initial=True)
         self._make_interfaces(snapshot.values, cfg)
-        self.add_pre_set_parameters_callback(self._params.coerce)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.add_post_set_parameters_callback(self._post_set_parameters)
         self.get_logger().info(
             f'ready: law {cfg.law}{" (PID)" if cfg.integral else ""}, model {snapshot.values["model"]}, '
             f'joints {list(cfg.joints)}, force axes {list(cfg.force_axes)}, '
@@ -371,26 +371,14 @@ class ControllerNode(Node):
         self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self.get_clock().now().nanoseconds))
 
     # -- parameters ------------------------------------------------------------------------------
-    def _on_set_parameters(self, parameters):
-        try:
-            self._pending = (parameters, self._params.validate(parameters))
-        except ParameterError as exc:
-            self._pending = None
-            return SetParametersResult(successful=False, reason=str(exc))
-        return SetParametersResult(successful=True)
-
-    def _post_set_parameters(self, parameters):
-        pending, self._pending = self._pending, None
-        if pending is None or pending[0] is not parameters:
-            pending = (parameters, self._params.validate(parameters))  # not expected: validated above
-        snapshot = pending[1]
-        old = self._params.current.values
-        self._params.commit(snapshot)
+    def _apply_parameters(self, old, snapshot, changed):
+        """After the engine committed a run-time change: the core's new configuration, references,
+        timers and publishers (`old`, `snapshot`: Snapshots before and after; `changed`: names)."""
         self._core.configure(snapshot.config)
         self._set_ft_subscription(snapshot.config)
-        changed = {p.name for p in parameters}
         values = snapshot.values
-        self._apply_references(values, changed=changed, old=old)
+        self._apply_references(values, changed=changed, old=old.values)
+        self._allow_partial = values['allow_partial_joints_goal']
         if 'state_timeout' in changed:
             self._set_watchdog(values['state_timeout'])
         if 'diagnostics_period' in changed:

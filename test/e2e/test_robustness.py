@@ -56,7 +56,7 @@ RTF = 0.5
 
 def _controller_parameter_names():
     from robot_control.ros import params
-    return {s.name for s in params.specs({})}
+    return set(params.TABLE.defaults())
 
 
 #: the lost-contact guard wired into the controller (proposal in /tmp/robustness_proposals.diff)

@@ -105,3 +105,32 @@ def test_an_invalid_file_fails_naming_the_parameter(ros_context, tmp_path, key, 
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(ParameterError, match=match):
         _node_from_file(ros_context, str(path))
+
+
+def test_empty_lists_in_a_file_are_empty(ros_context, tmp_path):
+    """`force_axes: []` turns off iiwa's force axis (with its k_e, x_e); `kp: []` keeps the designed gains,
+    as a `ros2 param dump` of the running node writes them."""
+    with open(os.path.join(CONFIG, 'iiwa.yaml')) as f:
+        doc = yaml.safe_load(f)
+    doc['controller']['ros__parameters'].update(force_axes=[], k_e=[], x_e=[], f_d=[], kp=[])
+    path = tmp_path / 'no_force.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    node = _node_from_file(ros_context, str(path))
+    try:
+        cfg = node.core.config
+        assert cfg.force_axes == () and cfg.k_e.shape == (0,)
+        assert node.get_parameter('kp').type_ == Parameter.Type.DOUBLE_ARRAY
+        np.testing.assert_array_equal(cfg.gains.kp, [36.0] * 7)
+    finally:
+        node.destroy_node()
+
+
+def test_a_key_the_controller_does_not_have_is_refused(ros_context, tmp_path):
+    with open(os.path.join(CONFIG, 'polar_two_link.yaml')) as f:
+        doc = yaml.safe_load(f)
+    doc['controller']['ros__parameters']['model_params']['mass'] = 2.0
+    path = tmp_path / 'typo.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.raises(ParameterError, match=r'^model_params.mass: unknown parameter of controller; did you mean '
+                                             r'model_params.m\?'):
+        _node_from_file(ros_context, str(path))

@@ -461,10 +461,10 @@ def test_valid_parameter_change_takes_effect_on_the_next_tick(ros_context):
     ('zeta', 0.5, 'zeta: 0.5 breaks the rule zeta >= 1'),
     ('omega_n', 7.0, 'omega_n: 7 rad/s > 0.5 * 12 rad/s'),
     ('kp', [36.0, 36.0, 36.0], 'kp: expected 2 values'),
-    ('kp', [-1.0, 36.0], 'kp: expected non-negative gains'),
+    ('kp', [-1.0, 36.0], 'kp: expected non-negative values'),
     ('law', 'pid', "law: unknown 'pid'"),
     ('effort_limits', [10.0], 'effort_limits: expected a scalar or length 2'),
-    ('effort_limits', [10.0, 0.0], 'effort_limits: expected positive bounds'),
+    ('effort_limits', [10.0, 0.0], 'effort_limits: expected positive values'),
     ('omega_res', -1.0, 'omega_res: expected a positive number'),
     ('state_timeout', 0.0, 'state_timeout: expected a positive number'),
     ('q_d', [0.1], 'q_d: expected empty or 2 values'),
@@ -518,6 +518,9 @@ def test_invalid_start_up_parameter_raises_naming_it(ros_context):
         ControllerNode(context=ros_context, parameter_overrides=[Parameter('scenario', value='moon_rover')])
     with pytest.raises(ParameterError, match='^zeta: expected type DOUBLE'):
         ControllerNode(context=ros_context, parameter_overrides=[Parameter('zeta', value=1)])
+    with pytest.raises(ParameterError, match='^zetta: unknown parameter of controller; did you mean zeta') as err:
+        ControllerNode(context=ros_context, parameter_overrides=[Parameter('zetta', value=1.0)])
+    assert err.value.name == 'zetta'
 
 
 def test_switching_law_and_gains_at_run_time_is_bumpless(ros_context):

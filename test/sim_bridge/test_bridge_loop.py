@@ -182,10 +182,13 @@ def test_defaults_validate_for_every_scenario():
         assert set(cfg.sim_params) >= set(sc.params)
 
 
-def test_every_parameter_has_a_description():
-    for spec in bridge_params.robot_specs() + [bridge_params.joints_spec('iiwa')] + bridge_params.specs('iiwa', 7):
-        assert spec.description and spec.kind in ('bool', 'double', 'string', 'double_array', 'string_array')
-        assert spec.read_only == (spec.name not in bridge_params.DYNAMIC)
+def test_every_parameter_has_a_description_and_only_the_pacing_and_disturbances_change_at_run_time():
+    rows, _ = bridge_params.TABLE.resolve(lambda row: 'iiwa' if row.name == 'scenario' else row.default)
+    for row in rows:
+        assert row.description and row.type in ('bool', 'double', 'string', 'double_array', 'string_array')
+    assert {row.name for row in rows if not row.read_only} == {
+        'real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
+        'disturbance.cartesian_force', 'diagnostics_period'}
 
 
 def test_control_period_multiple_of_physics_step():

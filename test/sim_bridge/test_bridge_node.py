@@ -341,6 +341,17 @@ def test_runtime_parameter_changes_are_validated(harness):
     assert described.read_only and 's' in described.description
 
 
+def test_a_world_error_names_the_parameter(ros_context):
+    """The World names its argument q0; the bridge names the parameter initial_positions."""
+    from robot_control.ros.param_table import ParameterError
+    from sim_bridge.bridge_node import SimBridge
+    q0 = [5.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0]       # joint 1 beyond the URDF's +-2.97 rad
+    with pytest.raises(ParameterError, match='^initial_positions: lbr_iiwa_joint_1 = 5.0 is outside') as err:
+        SimBridge(context=ros_context, parameter_overrides=[Parameter('scenario', value='iiwa'),
+                                                            Parameter('initial_positions', value=q0)])
+    assert err.value.name == 'initial_positions'
+
+
 def _run_node(*ros_args, timeout=30):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', PYTHONUNBUFFERED='1')
     return subprocess.run([sys.executable, '-m', 'sim_bridge.bridge_node', '--ros-args', *ros_args],
