@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -706,3 +706,45 @@ def test_main_exits_non_zero_naming_an_invalid_parameter():
             proc.wait()
     assert proc.returncode == 1
     assert 'invalid parameter zeta: 0.5 breaks the rule zeta >= 1' in out
+
+
+# -- joint_trajectory_controller semantics through the node ------------------------------------------------
+def test_constraints_parameters_hold_the_position_on_a_path_violation_and_report_error(ros_context):
+    """constraints.<joint>.trajectory set at run time; the robot does not follow: the path tolerance
+    trips, the reference holds where the robot is and /diagnostics' trajectory status is ERROR."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        assert all(r.successful for r in ctrl.set_parameters([Parameter('constraints.theta1.trajectory', value=0.02),
+                                                              Parameter('constraints.r.trajectory', value=0.02)]))
+        assert ctrl.core.config.tolerances.trajectory.tolist() == [0.02, 0.02]
+        q = np.array([0.1, 0.5])
+        robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS)
+        robot.send_until(ex, robot.traj_pub, cv.joint_trajectory(POLAR_JOINTS, [0.0, 0.5], [q, [0.6, 0.5]]),
+                         lambda: ctrl.trajectories_accepted == 1)
+        k = 1
+        while ctrl.core.goal.active and k < 500:
+            robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)       # the robot stays put
+            k += 1
+        assert ctrl.core.goal.outcome == 'path' and 'theta1: |q_d - q| = 0.02' in ctrl.core.goal.reason
+        _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
+        np.testing.assert_array_equal(ref[1], q)                                    # holds where it is
+        status = {s.name.split(': ')[1]: s for s in ctrl.diagnostics()}['trajectory']
+        assert status.level == DiagnosticStatus.ERROR and 'path' in status.message
+
+
+def test_a_partial_goal_is_refused_unless_allowed_and_an_empty_one_cancels(ros_context):
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        q = np.array([0.1, 0.5])
+        robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS)
+        partial = cv.joint_trajectory(['r'], [0.5], [[0.7]])
+        robot.send_until(ex, robot.traj_pub, partial, lambda: ctrl.rejected['joint_trajectory'] == 1)
+        assert 'allow_partial_joints_goal is false' in ctrl.last_rejection
+        assert ctrl.set_parameters([Parameter('allow_partial_joints_goal', value=True)])[0].successful
+        robot.send_until(ex, robot.traj_pub, partial, lambda: ctrl.trajectories_accepted == 1)
+        for k in range(1, 300):
+            _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
+        assert ref[1][0] == pytest.approx(0.1, abs=1e-12) and 0.5 < ref[1][1] < 0.7    # theta1 held, r moving
+        robot.send_until(ex, robot.traj_pub, cv.joint_trajectory(POLAR_JOINTS, [], np.zeros((0, 2))),
+                         lambda: ctrl.trajectories_accepted == 2)
+        _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + 300 * DT_NS)
+        np.testing.assert_array_equal(ref[1], q)                                    # cancelled: holds q
+        assert ctrl.core.goal.outcome == 'cancelled'
