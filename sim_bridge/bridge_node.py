@@ -8,7 +8,8 @@ simulation time), `ft_sensor/wrench` (geometry_msgs/WrenchStamped: force and tor
 exerts on the surface, world axes, frame `wrench_frame_id`; only while it has a subscriber) and
 `/diagnostics` (statuses `<node name>: pacing`, `: commands`, `: brakes`, hardware_id the scenario
 or URDF, stamped with simulation time; every diagnostics_period and at once when the brakes
-change). Subscribes `robot_joint_commands` (sensor_msgs/JointState, names + efforts, joints
+change) and `robot_description` (std_msgs/String, transient local: the URDF of the simulated robot,
+as robot_state_publisher offers it). Subscribes `robot_joint_commands` (sensor_msgs/JointState, names + efforts, joints
 matched by name) and `effort_controller/commands` (std_msgs/Float64MultiArray in `joints` order).
 Services `~/reset` (std_srvs/Trigger) and `~/pause` (std_srvs/SetBool). The publishers on the
 command topics are counted every 0.1 s of wall time. The node never reads a parameter in the
@@ -40,14 +41,14 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import SetBool, Trigger
 
 from robot_control import scenarios, units
 from robot_control.ros import cdr, conversions, spin
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
 from robot_control.ros.param_table import ParameterError
-from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS
+from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DESCRIPTION_QOS, DIAGNOSTICS_QOS
 from robot_control.validation import ArgumentError
 from sim_bridge import parameters as bridge_params
 from sim_bridge.bridge_loop import COMMAND_TOPICS, make_loop
@@ -137,6 +138,10 @@ class SimBridge(ParameterNode):
             self.create_subscription(Float64MultiArray, COMMAND_TOPICS[1], self._on_array_command, CONTROL_QOS))
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
+        # the URDF of the simulated robot, as robot_state_publisher would offer it (transient local)
+        self._pub_description = self.create_publisher(String, 'robot_description', DESCRIPTION_QOS)
+        with open(self._world.urdf, encoding='utf-8') as f:
+            self._pub_description.publish(String(data=f.read()))
 
     # -- parameters ---------------------------------------------------------------------------
     def _apply_parameters(self, old, new, changed):

@@ -116,6 +116,30 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir
     return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring)
 
 
+def _whole_ns(dt):
+    """The physics step dt (s) as whole nanoseconds; ArgumentError naming dt otherwise."""
+    dt = validation.scalar('dt', dt, positive=True)
+    dt_ns = round(dt * 1e9)
+    if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
+        raise ArgumentError('dt', f'expected a whole number of nanoseconds, got {dt} s')
+    return dt_ns
+
+
+def _zero_damping(client, body):
+    """No hidden damping: PyBullet's default link and joint damping would act on every joint."""
+    for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
+        p.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                         physicsClientId=client)
+
+
+def _hold(client, body, joints):
+    """Lock the movable joints that are not controlled at 0 (as UrdfModel locks them at neutral)."""
+    if joints:
+        k = len(joints)
+        p.setJointMotorControlArray(body, joints, p.POSITION_CONTROL, targetPositions=[0.0] * k,
+                                    forces=[UNLIMITED_BRAKE] * k, physicsClientId=client)
+
+
 class World:
     """A PyBullet world stepping one robot under a held joint torque.
 
@@ -132,7 +156,7 @@ class World:
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
                  surface=True, disturbance=None, tip=None, surface_damping=0.0):
         self.scenario = _scenario(scenario)
-        self.dt_ns = self._dt_ns(dt)
+        self.dt_ns = _whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
         self._tmpdir = tempfile.mkdtemp(prefix='sim_bridge_')
         self._client = None
@@ -147,14 +171,6 @@ class World:
         except BaseException:
             self.close()
             raise
-
-    @staticmethod
-    def _dt_ns(dt):
-        dt = validation.scalar('dt', dt, positive=True)
-        dt_ns = round(dt * 1e9)
-        if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
-            raise ArgumentError('dt', f'expected a whole number of nanoseconds, got {dt} s')
-        return dt_ns
 
     # -- properties ----------------------------------------------------------------------------
     @property
@@ -171,6 +187,11 @@ class World:
     def effort_limit(self):
         """Per-joint effort limit from the URDF, N m or N, (n,); inf where the URDF sets none."""
         return self._limit.copy()
+
+    @property
+    def urdf(self):
+        """Path of the URDF file the simulated robot was loaded from (generated for closed forms)."""
+        return self._spec.urdf
 
     @property
     def gravity(self):
@@ -221,8 +242,8 @@ class World:
         except p.error as exc:
             raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
         self._index_joints()
-        self._zero_damping()
-        self._hold_other_joints()
+        _zero_damping(c, self._body)
+        _hold(c, self._body, self._others)
         p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
                                     physicsClientId=c)
         self._check_travel(q0)
@@ -264,18 +285,6 @@ class World:
         for name, q, (lower, upper) in zip(self._spec.joints, q0, self._travel):
             if lower <= upper and not lower <= q <= upper:
                 raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
-
-    def _zero_damping(self):
-        for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
-            p.changeDynamics(self._body, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
-                             physicsClientId=self._client)
-
-    def _hold_other_joints(self):
-        """Movable joints not controlled are locked at 0 (as UrdfModel locks them at neutral)."""
-        if self._others:
-            k = len(self._others)
-            p.setJointMotorControlArray(self._body, self._others, p.POSITION_CONTROL, targetPositions=[0.0] * k,
-                                        forces=[UNLIMITED_BRAKE] * k, physicsClientId=self._client)
 
     def _make_wall(self):
         spec = self._spec

@@ -75,11 +75,14 @@ def tolerances(values, model, kind):
 
 
 class ConfigBuilder:
-    """values -> ControllerConfig; keeps the latest model."""
+    """values -> ControllerConfig; keeps the latest model. `description`: URDF XML text received on the
+    robot_description topic, the model's source when model is 'urdf' and neither urdf nor
+    robot_description is set."""
 
     def __init__(self):
         self._model_key = None
         self._model = None
+        self.description = None
 
     def __call__(self, values):
         model = self.model(values)
@@ -110,14 +113,13 @@ class ConfigBuilder:
         """The model of `values` (the last one when its parameters did not change)."""
         params = {k[len(MODEL_PARAMS):]: v for k, v in values.items() if k.startswith(MODEL_PARAMS)}
         key = (values['model'], tuple(sorted(params.items())), values['urdf'], values['robot_description'],
-               values['tip'], values['joints'])
+               values['tip'], values['joints'], self.description)
         if key != self._model_key:
             self._model = self._make_model(values, params)
             self._model_key = key
         return self._model
 
-    @staticmethod
-    def _make_model(values, params):
+    def _make_model(self, values, params):
         name = values['model']
         if name != 'urdf':
             try:
@@ -126,10 +128,10 @@ class ConfigBuilder:
                 raise
             except ValueError as exc:       # arguments that do not fit the class
                 raise ParameterError('model', exc) from None
-        source = values['robot_description'] or values['urdf']
+        source = values['robot_description'] or values['urdf'] or self.description
         if not source:
-            raise ParameterError('urdf', "model 'urdf' needs urdf (file or shipped name) or robot_description "
-                                         '(XML text)')
+            raise ParameterError('urdf', "model 'urdf' needs urdf (file or shipped name), robot_description "
+                                         '(XML text) or a URDF on the robot_description topic')
         try:
             return make_model('urdf', urdf=source, joints=values['joints'] or None, tip=values['tip'] or None,
                               gravity=(0.0, 0.0, -params['gravity']))

@@ -1,4 +1,4 @@
-"""controller_node: the ROS 2 layer around ControllerCore.
+"""controller_node: the robot_control controller as a managed (lifecycle) ROS 2 node.
 
 Topics (names relative, remappable; QoS from robot_control.ros.qos):
   sub joint_states                sensor_msgs/JointState       CONTROL_QOS   robot state, by name
@@ -7,416 +7,205 @@ Topics (names relative, remappable; QoS from robot_control.ros.qos):
                                                                              stamped ahead: applied from that time
                                                                              (dropped if time goes back first)
   sub ft_sensor/wrench            geometry_msgs/WrenchStamped  CONTROL_QOS   measured contact force
+  sub robot_description           std_msgs/String              transient local: the URDF, when model is
+                                                                             'urdf' and neither urdf nor
+                                                                             robot_description is given
   pub robot_joint_commands        sensor_msgs/JointState       CONTROL_QOS   name + effort
   pub effort_controller/commands  std_msgs/Float64MultiArray   CONTROL_QOS   if publish_effort_array
   pub ~/reference                 sensor_msgs/JointState       REFERENCE_QOS reference of the tick
   pub ~/error                     sensor_msgs/JointState       REFERENCE_QOS tracking error of the tick
   pub /diagnostics                diagnostic_msgs/DiagnosticArray DIAGNOSTICS_QOS  every diagnostics_period
 
-Event-driven: each valid joint_states message gets exactly one command, computed from the
-reference sampled at that message's header.stamp and stamped with the same stamp. An invalid one
-(a controlled joint missing, duplicate names, position/velocity lengths not matching name, NaN/inf
-in a controlled joint) gets no command, a count and a reason on /diagnostics and a throttled
-warning. Names that are not controlled are ignored, as ros2_control users expect from a
-joint_states shared with other hardware.
+Event-driven: while active, each valid joint_states message gets exactly one command, computed
+from the reference sampled at that message's header.stamp and stamped with the same stamp. An
+invalid one (a controlled joint missing, duplicate names, position/velocity lengths not matching
+name, NaN/inf in a controlled joint) gets no command, a count and a reason on /diagnostics and a
+throttled warning. Names that are not controlled are ignored.
 
 ~/reference and ~/error carry, per entry of the law's space (the joints, the task axes of hybrid,
-the force axis of force):
-  ~/reference: position = q_d | x_d | f_d, velocity = first derivative, effort = second
-               derivative (JointState has no acceleration field);
-  ~/error:     position = E, velocity = Ed, effort = the error integral int E (zeros without
-               integral action). On force axes the values are forces (N, N/s, N/s^2, N s).
+the force axis of force): ~/reference position = q_d | x_d | f_d, velocity = its rate, effort = its
+second derivative; ~/error position = E, velocity = Ed, effort = the error integral (zeros without
+integral action). On force axes the values are forces (N, N/s, N/s^2, N s).
 
-Trajectories: like joint_trajectory_controller (names in any order, exactly the controlled
-joints, strictly increasing time_from_start > 0, finite values, velocities/accelerations in
-every point or none). header.stamp zero = start at the last state's time; the current reference
-is the implicit first point, so a new trajectory replaces the active one without a jump in the
-reference; the last point is held. A single point is a quintic point-to-point move. Accepted
-only while the controller runs (after the first state, not while the watchdog is tripped).
+Trajectories on ~/joint_trajectory, as joint_trajectory_controller takes them: names in any order;
+the first point may be at 0 s; header.stamp 0 starts now, a later stamp then, a past one as if the
+trajectory began then; an empty trajectory cancels the motion and holds the current position;
+allow_partial_joints_goal lets a goal leave joints out (they hold); the constraints.* parameters
+give goal and path tolerances (a violation holds the position and reports ERROR); a path beyond the
+URDF's position or velocity limits is refused.
 
-The node translates; the rclpy-free core decides: the time line of the stamps
-(robot_control.core.timeline), the watchdog (core.watchdog), the pairing of a state with the wrench
-of its own tick (core.pairing: a state waits in it, answered from the wrench callback or a one-shot
-timer), the law and its references (core.controller), the content of /diagnostics (core.status).
-
-Watchdog: no joint_states for state_timeout (node clock, and the steady clock) stops the core and
-reports ERROR at once. When states return, the core restarts from the current state: integral
-reset, reference = hold the current position.
-
-joint_states is taken as serialized bytes and read by robot_control.ros.cdr (rclpy decodes what
-that declines, e.g. big-endian CDR); the command is written as serialized bytes too. Only reading
-the state, the law and the publish run before the command goes out; the bookkeeping follows.
+Lifecycle (rclpy.lifecycle): parameters are declared and checked when the node is created;
+configure builds the model and the controller (a ControllerSession, robot_control.ros.
+controller_session) and checks the parameters that depend on the model; activate starts commanding
+from the current state (the reference holds where the robot is: no torque jump); deactivate stops
+commanding (the robot's driver then falls back on its command timeout: the simulation bridge
+engages its brakes in realtime mode and waits in lockstep mode); cleanup and shutdown release
+everything. With autostart (default true) the node configures and activates itself, so `ros2 run`
+starts a controller; invalid parameters then end the process with code 1.
 
 Parameters: the table robot_control.ros.params, declared and checked by the parameter engine
-(robot_control.ros.param_engine: one on-set callback whose reason names the parameter), built into
-a ControllerConfig by robot_control.ros.controller_config, applied after the engine committed it by
-swapping the core's configuration snapshot; nothing reads the parameter server per tick.
-A start-up parameter the controller does not have is refused.
+(robot_control.ros.param_engine; a refusal's reason names the parameter), built into a
+ControllerConfig by robot_control.ros.controller_config; a run-time change is applied by swapping
+the core's configuration. A start-up parameter the controller does not have is refused.
 
 Run: python -m robot_control.ros.controller_node --ros-args --params-file config/polar_two_link.yaml
 """
 import sys
-import time
 
-import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import WrenchStamped
-from rclpy.clock import Clock, ClockType
-from rclpy.serialization import deserialize_message
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
-from trajectory_msgs.msg import JointTrajectory
+from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
+from std_msgs.msg import String
 
-from robot_control import units
-from robot_control.core.controller import ControllerCore
-from robot_control.core.pairing import WrenchPairing
-from robot_control.core.status import Counters, controller_statuses, needs_wrench
-from robot_control.core.timeline import Timeline
-from robot_control.core.watchdog import StateWatchdog
-from robot_control.ros import cdr, conversions, spin
-from robot_control.ros import params
+from robot_control.ros import params, spin
 from robot_control.ros.controller_config import ConfigBuilder
+from robot_control.ros.controller_session import ControllerSession
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
 from robot_control.ros.param_table import ParameterError
-from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
-from robot_control.ros.throttle import Throttle
-from robot_control.validation import ArgumentError
-
-#: rejected-input sources, in the order /diagnostics lists them
-INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
-#: s of wall time a state waits for the wrench of its own tick (paired streams only, core.pairing)
-WRENCH_WAIT = 0.005
-#: smallest watchdog check period, s
-MIN_WATCHDOG_PERIOD = 0.001
-#: throttle of the warnings about rejected input, s
-WARN_THROTTLE = 1.0
+from robot_control.ros.qos import DESCRIPTION_QOS
 
 
-class ControllerNode(ParameterNode):
-    """The robot_control controller (any law of robot_control.laws.LAWS) over ROS 2 topics.
+class ControllerNode(ParameterNode, LifecycleNode):
+    """The robot_control controller (any law of robot_control.laws.LAWS), a managed node.
 
     kwargs go to rclpy.node.Node (context=, parameter_overrides=, cli_args=, ...). Raises
-    ParameterError naming the parameter when the start-up parameters are invalid.
+    ParameterError naming the parameter when the start-up parameters are invalid (with autostart,
+    also those that configure checks).
     """
 
     def __init__(self, node_name='controller', **kwargs):
         super().__init__(node_name, **kwargs)
+        self.session = None
+        self._error = None
+        self._description_sub = None
         try:
-            self._setup()
+            self._builder = ConfigBuilder()
+            self._params = ParameterEngine(self, params.TABLE, self._builder, apply=self._apply_parameters,
+                                           deferred=True)
+            self._autostart = self._params.current.values['autostart']
+            if self._needs_description():
+                self._description_sub = self.create_subscription(String, 'robot_description', self._on_description,
+                                                                 DESCRIPTION_QOS)
+                self.get_logger().info('waiting for the URDF on robot_description')
+            elif self._autostart:
+                self._start()
         except BaseException:
             self.destroy_node()
             raise
 
-    def _setup(self):
-        self._params = ParameterEngine(self, params.TABLE, ConfigBuilder(), apply=self._apply_parameters)
-        snapshot = self._params.current
+    # -- public for tests and tools ----------------------------------------------------------------
+    @property
+    def core(self):
+        """The ControllerCore of the configured controller (None while unconfigured)."""
+        return None if self.session is None else self.session.core
+
+    @property
+    def counters(self):
+        """Commands sent, trajectories accepted, rejected inputs (robot_control.core.status.Counters)."""
+        return self.session.counters
+
+    @property
+    def watchdog_tripped(self):
+        return self.session.watchdog.tripped
+
+    @property
+    def trips(self):
+        return self.session.watchdog.trips
+
+    @property
+    def wrench_received(self):
+        return self.session.counters.wrench_seen
+
+    @property
+    def rejected(self):
+        return self.session.counters.rejected
+
+    @property
+    def last_rejection(self):
+        return self.session.counters.last_rejection
+
+    @property
+    def commands_sent(self):
+        return self.session.counters.commands_sent
+
+    @property
+    def trajectories_accepted(self):
+        return self.session.counters.trajectories_accepted
+
+    def diagnostics(self):
+        """The DiagnosticStatus list /diagnostics carries now."""
+        return self.session.diagnostics()
+
+    # -- robot_description ---------------------------------------------------------------------------
+    def _needs_description(self):
+        values = self._params.current.values
+        return values['model'] == 'urdf' and not values['urdf'] and not values['robot_description']
+
+    def _on_description(self, msg):
+        """The URDF from robot_description: the model of the next configure (autostart: configure now)."""
+        first = self._builder.description is None
+        self._builder.description = msg.data
+        self.get_logger().info(f'robot_description received ({len(msg.data)} characters)')
+        if first and self._autostart and self.session is None:
+            try:
+                self._start()
+            except ParameterError as exc:
+                self.get_logger().error(f'invalid parameter {exc}')
+
+    # -- lifecycle -------------------------------------------------------------------------------------
+    def _start(self):
+        """autostart: configure and activate; a configure failure raises its ParameterError."""
+        self.trigger_configure()
+        if self.session is None:
+            raise self._error
+        self.trigger_activate()
+
+    def on_configure(self, state):
+        try:
+            if self._needs_description() and self._builder.description is None:
+                raise ParameterError('robot_description', 'no URDF received on the robot_description topic yet')
+            snapshot = self._params.configure()
+        except ParameterError as exc:
+            self._error = exc
+            self.get_logger().error(f'configure failed: {exc}')
+            return TransitionCallbackReturn.FAILURE
+        self.session = ControllerSession(self, snapshot)
         cfg = snapshot.config
-        self._core = ControllerCore(cfg)
-        self._joints = cfg.joints
-        self._task_axes = cfg.model.task_axes
-        self._counters = Counters(INPUTS)
-        self._timeline = Timeline(snapshot.values['state_timeout'])
-        self._watchdog = StateWatchdog(snapshot.values['state_timeout'])
-        self._pairing = WrenchPairing()
-        self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
-        self._contact_trips = 0
-        self._goal_seen = None
-        self._first_state_ns = None
-        self._allow_partial = snapshot.values['allow_partial_joints_goal']
-        self._make_messages(cfg)
-        self._apply_references(snapshot.values, initial=True)
-        self._make_interfaces(snapshot.values, cfg)
         self.get_logger().info(
             f'ready: law {cfg.law}{" (PID)" if cfg.integral else ""}, model {snapshot.values["model"]}, '
             f'joints {list(cfg.joints)}, force axes {list(cfg.force_axes)}, '
             f'kp {cfg.gains.kp.tolist() if cfg.gains is not None else []}')
+        return TransitionCallbackReturn.SUCCESS
 
-    def _make_messages(self, cfg):
-        """Readers and writers of the messages the loop handles, made once."""
-        self._reader = conversions.JointStateReader(cfg.joints)
-        # joint_states in and the command out as serialized bytes (robot_control.ros.cdr)
-        self._state_decoder = cdr.JointStateDecoder(arrays=False)    # floats: checked before any numpy call
-        self._command_encoder = cdr.JointStateEncoder(cfg.joints, fields=('effort',))
-        self._effort_array = Float64MultiArray()
-        self._reference_msg = JointState()
-        self._error_msg = JointState()
-        self._f_meas = np.zeros(len(self._task_axes))
+    def on_activate(self, state):
+        self.session.activate()
+        self.get_logger().info('active: commanding from the next joint_states on, from where the robot is')
+        return super().on_activate(state)
 
-    def _make_interfaces(self, values, cfg):
-        self._cmd_pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_PUB_QOS)
-        self._array_pub = None
-        self._set_array_publisher(values['publish_effort_array'])
-        self._ref_pub = self.create_publisher(JointState, '~/reference', REFERENCE_PUB_QOS)
-        self._err_pub = self.create_publisher(JointState, '~/error', REFERENCE_PUB_QOS)
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._wrench_timer = self.create_timer(WRENCH_WAIT, self._on_wrench_wait_over, clock=self._steady,
-                                               autostart=False)
-        self._ft_sub = None
-        self._set_ft_subscription(cfg)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_states_raw, CONTROL_QOS, raw=True)
-        self.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory, REFERENCE_QOS)
-        self.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference, REFERENCE_QOS)
-        self._watchdog_timer = self._diag_timer = None
-        self._set_watchdog(values['state_timeout'])
-        self._set_diagnostics_timer(values['diagnostics_period'])
+    def on_deactivate(self, state):
+        self.session.deactivate()
+        self.get_logger().info('inactive: not commanding')
+        return super().on_deactivate(state)
 
-    # -- public for tests and tools ----------------------------------------------------------------
-    @property
-    def core(self):
-        """The ControllerCore (read it, do not drive it from another thread)."""
-        return self._core
+    def on_cleanup(self, state):
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
 
-    @property
-    def watchdog_tripped(self):
-        """True while no joint_states arrived within state_timeout."""
-        return self._watchdog.tripped
+    def on_shutdown(self, state):
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
 
-    @property
-    def trips(self):
-        """How often the watchdog tripped."""
-        return self._watchdog.trips
+    def _release(self):
+        if self.session is not None:
+            self.session.destroy()
+            self.session = None
+        self._params.release()
 
-    @property
-    def wrench_received(self):
-        """True once a valid ft_sensor/wrench arrived."""
-        return self._counters.wrench_seen
-
-    @property
-    def rejected(self):
-        """Rejected inputs per source."""
-        return self._counters.rejected
-
-    @property
-    def last_rejection(self):
-        return self._counters.last_rejection
-
-    @property
-    def commands_sent(self):
-        return self._counters.commands_sent
-
-    @property
-    def trajectories_accepted(self):
-        return self._counters.trajectories_accepted
-
-    # -- state -> command --------------------------------------------------------------------------
-    def _on_joint_states_raw(self, data):
-        """joint_states as DDS delivered it: decoded by robot_control.ros.cdr, or by rclpy when the fast
-        decoder declines (e.g. big-endian CDR from another vendor)."""
-        msg = self._state_decoder.decode(data)
-        msg = deserialize_message(data, JointState) if msg is None else msg
-        if self._first_state_ns is None:
-            self._first_state_ns = conversions.stamp_to_ns(msg.header.stamp)
-        if self._ft_sub is None:
-            self._answer(msg)
-            return
-        first = self._pairing.last_state_ns is None
-        publisher = first and self.count_publishers(self._ft_sub.topic_name) > 0
-        for state in self._pairing.state(conversions.stamp_to_ns(msg.header.stamp), msg, publisher):
-            self._answer(state)
-        if self._pairing.held is not None:
-            self._wrench_timer.reset()
-
-    def _on_ft_sensor(self, msg):
-        try:
-            f = conversions.wrench_force(msg, self._task_axes)
-        except ValueError as exc:  # keep the last valid measurement
-            self._reject('ft_sensor_wrench', exc)
-            return
-        self._f_meas[:] = f
-        self._counters.wrench_seen = True
-        for state in self._pairing.wrench(conversions.stamp_to_ns(msg.header.stamp)):
-            self._wrench_timer.cancel()
-            self._answer(state)
-
-    def _on_wrench_wait_over(self):
-        self._wrench_timer.cancel()
-        for state in self._pairing.release():
-            self._answer(state)
-
-    def _answer(self, msg):
-        """State -> command. Only what the command needs runs before it is published (in lockstep the
-        simulator waits for it); the bookkeeping follows."""
-        t_in = time.perf_counter_ns()
-        stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
-        try:
-            q, qd = self._reader.read(msg)
-            t = self._timeline.accept(stamp_ns, running=self._core.active)
-        except ValueError as exc:
-            self._reject('joint_states', exc)
-            return
-        tau = self._core.update_checked(t, q, qd, self._f_meas)
-        self._cmd_pub.publish(self._command_encoder.encode(stamp_ns, effort=self._core.tau_values))
-        if self._array_pub is not None:
-            self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
-        self._counters.tick(time.perf_counter_ns() - t_in)
-        self._after_answer(stamp_ns)
-
-    def _after_answer(self, stamp_ns):
-        """Bookkeeping of an answered state: watchdog, counts, ~/reference, ~/error, diagnostics."""
-        recovered = self._watchdog.fresh(self.get_clock().now().nanoseconds, time.monotonic_ns())
-        self._counters.commands_sent += 1
-        if self._counters.commands_sent == 1:
-            self.get_logger().info(f'loop closed: the first command answers the state stamped '
-                                   f'{units.seconds(stamp_ns):.3f} s (first state received: '
-                                   f'{units.seconds(self._first_state_ns):.3f} s)')
-        if self._core.goal.outcome:
-            self._report_goal()
-        if recovered:
-            self.get_logger().info('joint_states are back: restarting from the current state')
-        guard = self._core.contact_guard
-        if guard is not None and guard.trips != self._contact_trips:
-            self._contact_trips = guard.trips
-            self.get_logger().error(guard.reason)
-            self._publish_diagnostics()
-        # ~/reference and ~/error are VOLATILE: with no subscriber the message is not even built
-        names = self._core.reference_names
-        if self._ref_pub.get_subscription_count():
-            pos, vel, acc = self._core.reference
-            self._ref_pub.publish(conversions.joint_state(names, stamp_ns, pos, vel, acc, out=self._reference_msg))
-        if self._err_pub.get_subscription_count():
-            E, Ed = self._core.error
-            self._err_pub.publish(conversions.joint_state(names, stamp_ns, E, Ed, self._core.integral_value,
-                                                          out=self._error_msg))
-        if recovered:
-            self._publish_diagnostics()
-
-    # -- references --------------------------------------------------------------------------------
-    def _on_trajectory(self, msg):
-        """A joint trajectory, as joint_trajectory_controller takes it (robot_control.core.references);
-        an empty one cancels the motion and holds the current position."""
-        try:
-            goal = conversions.trajectory_goal(msg, self._joints, self._allow_partial)
-            if not self._core.active:
-                raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
-            if goal.empty:
-                self._core.hold_position()
-                self._counters.trajectories_accepted += 1
-                self.get_logger().info('empty trajectory: motion cancelled, holding the current position')
-                return
-            t0 = self._core.set_trajectory(goal.times, goal.positions, goal.velocities, goal.accelerations,
-                                           t_start=self._timeline.time_of(goal.stamp_ns))
-        except ValueError as exc:
-            self._reject('joint_trajectory', exc)
-            return
-        self._counters.trajectories_accepted += 1
-        self.get_logger().info(f'trajectory accepted: {goal.times.shape[0]} points over {goal.times[-1]:g} s '
-                               f'from t = {t0:.6f} s')
-
-    def _report_goal(self):
-        """Log a trajectory's outcome once (robot_control.core.tolerances) and put it on /diagnostics."""
-        goal = self._core.goal
-        seen = (goal.goals, goal.outcome)
-        if seen == self._goal_seen or not goal.outcome:
-            return
-        self._goal_seen = seen
-        log = self.get_logger()
-        {'succeeded': log.info, 'cancelled': log.info, 'missed': log.warning, 'path': log.error}[goal.outcome](
-            f'trajectory {goal.outcome}: {goal.reason}')
-        self._publish_diagnostics()
-
-    def _on_wrench_reference(self, msg):
-        """A force reference: at once (header.stamp zero or not ahead of the last state), or pending
-        until the first state stamped at or after header.stamp (one pending; a new one replaces it)."""
-        axes = self._core.config.force_axes
-        try:
-            if not axes:
-                raise ArgumentError('force_axes', 'none configured (parameter force_axes)')
-            f_d = conversions.wrench_force(msg, axes)
-            stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
-            ahead = self._timeline.ahead(stamp_ns)
-            self._core.set_force_reference(f_d, t_start=self._timeline.time_of(stamp_ns) if ahead else None)
-        except ValueError as exc:
-            self._reject('wrench_reference', exc)
-            return
-        when = f' from t = {self._timeline.time_of(stamp_ns):.6f} s' if ahead else ''
-        self.get_logger().info(f'force reference {dict(zip(axes, f_d.tolist()))} N{when}')
-
-    def _reject(self, source, reason):
-        self._counters.reject(source, reason)
-        if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.ros.throttle
-            self.get_logger().warning(f'rejected {self._counters.last_rejection}')
-
-    # -- watchdog and diagnostics ------------------------------------------------------------------
-    def _set_watchdog(self, timeout):
-        if self._watchdog_timer is not None:
-            self.destroy_timer(self._watchdog_timer)
-        self._watchdog.timeout = self._timeline.max_jump = timeout
-        # on the steady clock: with use_sim_time a dead simulator also stops /clock
-        self._watchdog_timer = self.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog,
-                                                 clock=self._steady)
-
-    def _check_watchdog(self):
-        now, steady = self.get_clock().now().nanoseconds, time.monotonic_ns()
-        if self._core.active and self._watchdog.check(now, steady):
-            self._core.stop()
-            self.get_logger().error(f'no joint_states for {self._watchdog.age(now, steady):.3f} s (state_timeout '
-                                    f'{self._watchdog.timeout:g} s): stopped commanding')
-            self._publish_diagnostics()
-
-    def _set_diagnostics_timer(self, period):
-        if self._diag_timer is not None:
-            self.destroy_timer(self._diag_timer)
-        self._diag_timer = self.create_timer(period, self._publish_diagnostics, clock=self._steady)
-
-    def diagnostics(self):
-        """The DiagnosticStatus list /diagnostics carries now."""
-        name = self.get_fully_qualified_name().lstrip('/')
-        age = self._watchdog.age(self.get_clock().now().nanoseconds, time.monotonic_ns())
-        return [conversions.diagnostic_status(*status, name)
-                for status in controller_statuses(name, self._core, self._watchdog, age, self._counters)]
-
-    def _publish_diagnostics(self):
-        self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self.get_clock().now().nanoseconds))
-
-    # -- parameters ------------------------------------------------------------------------------
+    # -- parameters ------------------------------------------------------------------------------------
     def _apply_parameters(self, old, snapshot, changed):
-        """After the engine committed a run-time change: the core's new configuration, references,
-        timers and publishers (`old`, `snapshot`: Snapshots before and after; `changed`: names)."""
-        self._core.configure(snapshot.config)
-        self._set_ft_subscription(snapshot.config)
-        values = snapshot.values
-        self._apply_references(values, changed=changed, old=old.values)
-        self._allow_partial = values['allow_partial_joints_goal']
-        if 'state_timeout' in changed:
-            self._set_watchdog(values['state_timeout'])
-        if 'diagnostics_period' in changed:
-            self._set_diagnostics_timer(values['diagnostics_period'])
-        if 'publish_effort_array' in changed:
-            self._set_array_publisher(values['publish_effort_array'])
+        """After the engine committed a run-time change: the controller's new configuration (when configured)."""
+        if self.session is not None:
+            self.session.apply(old, snapshot, changed)
         self.get_logger().info(f'parameters set: {sorted(changed)}')
-
-    def _apply_references(self, values, initial=False, changed=(), old=None):
-        k = len(self._core.config.force_axes)
-        if values['q_d'] and (initial or 'q_d' in changed):
-            self._core.set_goal(values['q_d'])
-        if k and (initial or 'f_d' in changed or values['force_axes'] != old['force_axes']):
-            self._core.set_force_reference(values['f_d'] or np.zeros(k))
-
-    def _set_ft_subscription(self, cfg):
-        """Subscribe ft_sensor/wrench only while the law reads the measured force: each message wakes
-        the executor, at the bridge's control rate."""
-        needed = needs_wrench(cfg)
-        if needed and self._ft_sub is None:
-            self._f_meas[:] = 0.0
-            self._counters.wrench_seen = False
-            self._pairing = WrenchPairing()
-            self._ft_sub = self.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor,
-                                                    CONTROL_QOS)
-        elif not needed and self._ft_sub is not None:
-            self.destroy_subscription(self._ft_sub)
-            self._ft_sub = None
-            self._wrench_timer.cancel()
-            for state in self._pairing.release():
-                self._answer(state)
-
-    def _set_array_publisher(self, enabled):
-        if enabled and self._array_pub is None:
-            self._array_pub = self.create_publisher(Float64MultiArray, 'effort_controller/commands', CONTROL_PUB_QOS)
-        elif not enabled and self._array_pub is not None:
-            self.destroy_publisher(self._array_pub)
-            self._array_pub = None
 
 
 def _parse_args(argv):

@@ -17,7 +17,9 @@ ParameterEngine(node, table, build, apply):
 - then refuses a start-up override that is no row of the table and not rclpy's own
   (use_sim_time, start_type_description_service, qos_overrides.*), naming it (a typo is named
   before the build error it may cause);
-- then calls build(values) -> config (the node's own configuration object);
+- then calls build(values) -> config (the node's own configuration object), or, for a managed
+  (lifecycle) node created with deferred=True, leaves that to configure() (its on_configure);
+  release() (on_cleanup) drops the configuration again;
 - at run time: a pre-set callback coerces int -> double, int array -> double array and an empty
   list of any type -> the declared array type (`ros2 param set /controller omega_res 10`,
   `kp "[]"`); the on-set callback checks the rules and builds the would-be configuration, and
@@ -98,16 +100,17 @@ class ParameterEngine:
     build(values) -> config: the node's configuration from a read-only {name: value}; raises
     ParameterError or ArgumentError. apply(old, new, changed): called after a run-time change was
     committed, with the Snapshots before and after and the set of changed names. Raises
-    ParameterError when the start-up values are invalid.
+    ParameterError when the start-up values are invalid. deferred: the configuration is built by
+    configure(), not at once (Snapshot.config is None until then, and after release()).
     """
 
-    def __init__(self, node, table, build, apply=None):
+    def __init__(self, node, table, build, apply=None, deferred=False):
         self._node, self._build, self._apply = node, build, apply
         self._pending = None
         self._overrides = node.start_up_overrides
         self.rows, values = table.resolve(self._declare)
         self._refuse_unknown()
-        self._current = Snapshot(MappingProxyType(values), self._built(values))
+        self._current = Snapshot(MappingProxyType(values), None if deferred else self._built(values))
         node.add_pre_set_parameters_callback(self._coerce)
         node.add_on_set_parameters_callback(self._on_set)
         node.add_post_set_parameters_callback(self._post_set)
@@ -117,13 +120,29 @@ class ParameterEngine:
         """The committed Snapshot."""
         return self._current
 
+    @property
+    def configured(self):
+        """True while a configuration is built (always, unless deferred and not configured)."""
+        return self._current.config is not None
+
+    def configure(self):
+        """Build the configuration of the current values (ParameterError naming the parameter); the Snapshot."""
+        values = self._current.values
+        self._current = Snapshot(values, self._built(dict(values)))
+        return self._current
+
+    def release(self):
+        """Drop the configuration (a managed node's cleanup); the values stay."""
+        self._current = Snapshot(self._current.values, None)
+
     def validate(self, changes):
-        """The Snapshot that {name: value} `changes` would make, without committing it; ParameterError."""
+        """The Snapshot that {name: value} `changes` would make, without committing it; ParameterError.
+        Without a configuration (not configured yet) only the table's rules are checked."""
         values = dict(self._current.values)
         for name, value in changes.items():
             values[name] = self.rows[name].convert(value)
         self.rows.check(values)
-        return Snapshot(MappingProxyType(values), self._built(values))
+        return Snapshot(MappingProxyType(values), self._built(values) if self.configured else None)
 
     def error(self, exc):
         """ParameterError for an ArgumentError raised by code that uses the configuration (its name

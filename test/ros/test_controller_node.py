@@ -254,7 +254,7 @@ def test_a_big_endian_state_is_answered_like_a_little_endian_one(ros_context):
         big = T0_NS + DT_NS
         raw = big_endian({'names': list(POLAR_JOINTS), 'stamp_ns': big, 'frame_id': '', 'position': [0.1, 0.5],
                           'velocity': [0.2, -0.1], 'effort': []})
-        assert ctrl._state_decoder.decode(raw) is None
+        assert ctrl.session._state_decoder.decode(raw) is None
         robot.send_until(ex, robot.state_pub, raw, lambda: big in robot.commands)
         assert robot.commands[big][0] == POLAR_JOINTS
         np.testing.assert_array_equal(robot.commands[big][3], robot.commands[little][3])
@@ -397,7 +397,7 @@ def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_ne
     """Once wrenches carry the stamps of the states (a tick answered with its own wrench), a state whose
     wrench is still on its way waits for it (at most WRENCH_WAIT); a stream without those stamps does not."""
     import threading
-    from robot_control.ros.controller_node import WRENCH_WAIT
+    from robot_control.ros.controller_session import WRENCH_WAIT
     params, joints, q0, make_expected, _ = LAW_CASES['hybrid_sensor']
     expected_law = make_expected(False)
     with rig(ros_context, **params) as (ex, ctrl, robot):
@@ -648,9 +648,9 @@ def test_a_run_of_rejections_calls_the_logger_once_per_throttle_period(ros_conte
         class Logger:
             def warning(self, text, **kwargs):
                 warnings.append(text)
-        ctrl.get_logger = Logger                                   # this instance only
+        ctrl.session._log = Logger()                               # this controller only
         for k in range(100):
-            ctrl._reject('joint_states', f'bad {k}')
+            ctrl.session._reject('joint_states', f'bad {k}')
         assert ctrl.rejected['joint_states'] == 100 and ctrl.last_rejection == 'joint_states: bad 99'
         assert warnings == ['rejected joint_states: bad 0']
 

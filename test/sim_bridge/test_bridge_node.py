@@ -405,3 +405,22 @@ def test_params_file_starts_the_lecture_example(ros_context, executor, sig):
             proc.wait(timeout=10)
         executor.shutdown()
         probe.destroy_node()
+
+
+def test_the_urdf_of_the_simulated_robot_is_on_robot_description(ros_context):
+    """Transient local, as robot_state_publisher: a subscriber that comes later still gets it, and it
+    is the robot the world simulates (a heavier polar robot: its generated URDF, mass 2.5 kg)."""
+    from std_msgs.msg import String
+
+    from robot_control.models.urdf_model import UrdfModel
+    from robot_control.ros.qos import DESCRIPTION_QOS
+    h = Harness(ros_context, mode='lockstep', **{'sim_params.m': 2.5})
+    try:
+        got = []
+        late = h.probe.create_subscription(String, 'robot_description', lambda m: got.append(m.data), DESCRIPTION_QOS)
+        assert h.spin_until(lambda: bool(got)), 'no robot_description'
+        model = UrdfModel(got[0], joints=('theta1', 'r'), gravity=(0.0, 0.0, -9.8))
+        np.testing.assert_allclose(model.M([0.0, 0.5])[1, 1], 2.5, rtol=1e-12)
+        h.probe.destroy_subscription(late)
+    finally:
+        h.close()
