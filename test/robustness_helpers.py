@@ -146,7 +146,7 @@ def processes():
 
 
 def bridge(domain_id, log_dir, scenario='polar_two_link', namespace=None, **params):
-    """The bridge process with config/<scenario>.yaml (no file in a namespace: the YAML keys are root names)."""
+    """The bridge process with config/<scenario>.yaml (in a namespace: no file, the scenario parameter's defaults)."""
     args = ros_args(None if namespace else config(scenario), **params)
     if namespace:   # /clock is absolute: each namespace gets its own
         args += ['-p', f'scenario:={scenario}', '-r', f'__ns:={namespace}', '-r', f'/clock:={namespace}/clock']

@@ -61,6 +61,11 @@ def entry_points(prefix):
     return dict(parser['console_scripts'])
 
 
+def text(path):
+    with open(path, encoding='utf-8') as f:
+        return f.read()
+
+
 def names(pattern):
     return sorted(os.path.basename(p) for p in glob.glob(pattern))
 
@@ -93,9 +98,7 @@ def test_nodes_are_installed_where_ros2_run_looks(installed):
 def test_package_is_registered_in_the_ament_index(installed):
     prefix, _ = installed
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PKG).is_file()
-    with open(prefix / 'share' / PKG / 'package.xml', encoding='utf-8') as got, \
-            open(os.path.join(ROOT, 'package.xml'), encoding='utf-8') as want:
-        assert got.read() == want.read()
+    assert text(prefix / 'share' / PKG / 'package.xml') == text(os.path.join(ROOT, 'package.xml'))
 
 
 def test_config_and_urdf_files_are_installed(installed):
@@ -107,6 +110,16 @@ def test_config_and_urdf_files_are_installed(installed):
     assert names(str(share / 'urdf' / '*.urdf')) == urdfs
     site = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages' / PKG / 'urdf'))
     assert len(site) == 1 and names(os.path.join(site[0], '*.urdf')) == urdfs   # package_data
+
+
+def test_launch_file_is_installed_where_ros2_launch_looks(installed):
+    """`ros2 launch robot_control scenario.launch.py` finds share/robot_control/launch/*.launch.py."""
+    prefix, _ = installed
+    sources = names(os.path.join(ROOT, 'launch', '*.launch.py'))
+    assert 'scenario.launch.py' in sources
+    assert names(str(prefix / 'share' / PKG / 'launch' / '*.launch.py')) == sources
+    assert text(prefix / 'share' / PKG / 'launch' / 'scenario.launch.py') == \
+        text(os.path.join(ROOT, 'launch', 'scenario.launch.py'))
 
 
 def test_installed_package_resolves_its_own_urdfs(installed, tmp_path):
@@ -129,7 +142,7 @@ def test_every_config_yaml_is_installed(tmp_path):
     ignore = shutil.ignore_patterns('.*', '__pycache__', *ARTIFACTS, 'out', '*.egg-info', 'test')
     shutil.copytree(ROOT, src, ignore=ignore)
     os.makedirs(src / 'config', exist_ok=True)
-    (src / 'config' / 'zz_probe.yaml').write_text('controller:\n  ros__parameters:\n    rate: 1000.0\n')
+    (src / 'config' / 'zz_probe.yaml').write_text('/**/controller:\n  ros__parameters:\n    rate: 1000.0\n')
     prefix = colcon_build(tmp_path / 'src', tmp_path)
     installed_yaml = names(str(prefix / 'share' / PKG / 'config' / '*.yaml'))
     assert installed_yaml == names(str(src / 'config' / '*.yaml'))
