@@ -50,6 +50,9 @@ class ControllerConfig:
     force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
     contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
       measured force explains, m/s along the axis; > 0, inf = off), robot_control.core.contact.ContactGuard.
+    cartesian_stiffness: six values (x, y, z N/m; rx, ry, rz N m/rad) of the impedance law's K;
+      cartesian_damping: six values (N s/m, N m s/rad), or None for the design of cartesian_damping_ratio;
+      max_pose_error: (m, rad) bounds of the task error the impedance law (and hybrid's target) servo.
     trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
       goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
       (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
@@ -77,6 +80,10 @@ class ControllerConfig:
     goal_tolerance: np.ndarray = 0.0
     goal_time: float = 0.0
     stopped_velocity_tolerance: float = 0.01
+    cartesian_stiffness: tuple = (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0)
+    cartesian_damping: tuple = None
+    cartesian_damping_ratio: float = 1.0
+    max_pose_error: tuple = (0.1, 0.5)
 
     def __post_init__(self):
         model = self.model
@@ -108,6 +115,12 @@ class ControllerConfig:
                 raise ArgumentError(name, f'expected a positive bound (inf = off), got {value!r}')
             set_(name, float(value))
         self._set_tolerances(set_)
+        set_('cartesian_damping_ratio', validation.scalar('cartesian_damping_ratio', self.cartesian_damping_ratio,
+                                                          nonnegative=True))
+        limits = validation.vector('max_pose_error', self.max_pose_error, 2)
+        if min(limits.tolist()) <= 0.0:
+            raise ArgumentError('max_pose_error', f'expected two positive bounds (m, rad), got {limits.tolist()}')
+        set_('max_pose_error', tuple(limits.tolist()))
         set_('_law', law(self))
 
     def _set_force_axes(self, set_):

@@ -145,6 +145,17 @@ class ControllerCore:
         if self._guard is not None and self._refs.force_pending is None:
             self._guard.reset()
 
+    def set_target_pose(self, x_d, t_start=None):
+        """A task-space target x_d (m,) for the laws that track the task (impedance; hybrid's motion axes),
+        at rest, from t_start (None: now; after the last tick: pending until then). Until the first
+        target after a (re)start they follow the joint reference in the task space."""
+        self._require_active('target_pose')
+        self._refs.set_task_target(self._t, validation.vector('x_d', x_d, self._cfg.model.task_dim), t_start)
+
+    def set_target_wrench(self, wrench):
+        """A feed-forward wrench (m,) N, N m on the task axes (impedance), the robot on its environment."""
+        self._refs.wrench = np.array(validation.vector('wrench', wrench, self._cfg.model.task_dim))
+
     @property
     def force_target(self):
         """The force reference's target per force axis, N (copy)."""
@@ -237,6 +248,8 @@ class ControllerCore:
         pending = refs.force_pending
         refs.sample(t, force)
         tick.q_d, tick.qd_d, tick.qdd_d = refs.q_d, refs.qd_d, refs.qdd_d
+        tick.target = refs.sample_target(t) if law.tracks == 'task' else None
+        tick.wrench = refs.wrench
         tick.f_d = tick.fd_d = tick.fdd_d = None
         if not force:
             return

@@ -10,6 +10,8 @@ makes a quintic move, set_trajectory() a path through points like joint_trajecto
 (a start in the future is pending until then). Force reference (f_d, fd_d, fdd_d), (k,) over the
 force axes: ramps from the measured force to the target at a (re)start and on every new target
 (quintic over force_ramp_time; a step when that is 0); a target may be stamped ahead (pending).
+Task target (x_d, 0, 0), (m,) in the model's task space, and a feed-forward wrench (m,): set by
+~/target_pose and ~/target_wrench, none after a (re)start; a target may be stamped ahead too.
 """
 import numpy as np
 
@@ -31,6 +33,7 @@ class References:
         self.q_d, self.qd_d, self.qdd_d = np.zeros(n), np.zeros(n), np.zeros(n)
         self._traj = self._pending = self._goal = None
         self._held = None           # the trajectory whose end state (held after t_end) q_d ... hold
+        self.task_target = self.wrench = self._target_pending = None
         self.set_force_axes(k)
 
     def set_force_axes(self, k):
@@ -51,6 +54,7 @@ class References:
             self._goal = None
             self._traj = from_points(t, (q, None, None), [duration], [goal])
         self._force_pending = None
+        self.task_target = self.wrench = self._target_pending = None
         if self.k:
             self._force = self._ramp(t, (self.f_target if f is None else f, None, None), self.f_target)
 
@@ -69,6 +73,23 @@ class References:
                 self._force_pending = None
                 self._set_force(t, pending[1])
             self._force.sample_into(t, self.f_d, self.fd_d, self.fdd_d)
+
+    def sample_target(self, t):
+        """The task target at t (a pending one whose start has come takes over): (x_d, 0, 0) or None."""
+        pending = self._target_pending
+        if pending is not None and t >= pending[0]:
+            self._target_pending = None
+            self.task_target = (pending[1], np.zeros_like(pending[1]), np.zeros_like(pending[1]))
+        return self.task_target
+
+    def set_task_target(self, t_now, x_d, t_start=None):
+        """A task target x_d (m,), at rest, from t_start (None or not after t_now: now; later: pending)."""
+        x_d = np.array(x_d, dtype=float)
+        if t_now is not None and t_start is not None and t_start > t_now:
+            self._target_pending = (t_start, x_d)
+            return
+        self._target_pending = None
+        self.task_target = (x_d, np.zeros_like(x_d), np.zeros_like(x_d))
 
     def at(self, t):
         """(q_d, qd_d, qdd_d) the joint reference gives at time t (new arrays)."""

@@ -3,7 +3,7 @@
 servo + Integral: the servo portion v = qdd_d + Kv Ed + Kp E + Ki int E, and the error integral.
 computed_torque: tau = M v + C qd + g.  independent_joint: tau = Kp E + Kv Ed + Ki int E.
 force_1dof: tau = m v + f.  hybrid: hybrid position/force control in operational space.
-gravity_compensation: tau = g(q).  saturate: clip to the effort limits, with the saturated mask.
+gravity_compensation: tau = g(q).  impedance: Cartesian impedance in operational space.  saturate: clip to the effort limits, with the saturated mask.
 
 LAWS is the registry the controller core and the tools ask: law name -> Law class (laws.base).
 A new law is one module with its equation and its Law class, and one entry here.
@@ -13,6 +13,7 @@ from robot_control.laws.computed_torque import ComputedTorque, computed_torque
 from robot_control.laws.force import Force, force_1dof, spring_force
 from robot_control.laws.gravity_compensation import GravityCompensation, gravity_compensation
 from robot_control.laws.hybrid import Hybrid, hybrid, hybrid_error, hybrid_servo
+from robot_control.laws.impedance import Impedance, impedance
 from robot_control.laws.independent_joint import IndependentJoint, independent_joint
 from robot_control.laws.operational_space import operational_space, posture_acceleration
 from robot_control.laws.saturation import saturate
@@ -20,7 +21,7 @@ from robot_control.laws.servo import Integral, servo
 from robot_control.validation import ArgumentError
 
 #: law name -> Law class, in the order the parameter table lists them
-LAWS = {law.name: law for law in (ComputedTorque, IndependentJoint, Force, Hybrid, GravityCompensation)}
+LAWS = {law.name: law for law in (ComputedTorque, IndependentJoint, Force, Hybrid, GravityCompensation, Impedance)}
 
 
 def law_class(name):
@@ -33,4 +34,4 @@ def law_class(name):
 
 __all__ = ['LAWS', 'Law', 'Tick', 'law_class', 'Integral', 'servo', 'computed_torque', 'independent_joint',
            'force_1dof', 'spring_force', 'hybrid', 'hybrid_error', 'hybrid_servo', 'operational_space',
-           'posture_acceleration', 'gravity_compensation', 'saturate']
+           'posture_acceleration', 'gravity_compensation', 'impedance', 'saturate']

@@ -27,13 +27,14 @@ class Tick:
     Measured: t (s), q, qd (n,). Task state (needs_task_space): x, xd (m,), J (m, n), Jdot_qd (m,).
     Force feedback on the force axes (uses_force): f, fdot (k,) N and N/s, the force the robot exerts
     on the environment. References: q_d, qd_d, qdd_d (n,) the joint reference; f_d, fd_d, fdd_d (k,)
-    the force reference. What the law derives from them (Law.errors): ref = (pos, vel, acc) and the
+    the force reference; target (x_d, xd_d, xdd_d) (m,) each, a task-space target when one was given
+    (~/target_pose), else None; wrench (m,) a feed-forward wrench (N, N m) or None. What the law derives from them (Law.errors): ref = (pos, vel, acc) and the
     errors E, Ed in the law's own space (Law.reference_names), which the core integrates and the node
     publishes on ~/reference and ~/error.
     """
 
     __slots__ = ('t', 'q', 'qd', 'x', 'xd', 'J', 'Jdot_qd', 'f', 'fdot', 'q_d', 'qd_d', 'qdd_d',
-                 'f_d', 'fd_d', 'fdd_d', 'ref', 'E', 'Ed')
+                 'f_d', 'fd_d', 'fdd_d', 'target', 'wrench', 'ref', 'E', 'Ed')
 
     def __init__(self):
         for name in self.__slots__:

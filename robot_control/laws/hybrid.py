@@ -27,11 +27,12 @@ from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
 
-def _hybrid_errors(x, xd, x_d, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes):
-    """Per task axis (m,): the reference acceleration (xdd_d or fdd_d) and the errors E = x_d - x or
-    f_d - f, Ed = xd_d - xd or fd_d - fdot, on the motion or force axes."""
+def _hybrid_errors(dx, xd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes):
+    """Per task axis (m,): the reference acceleration (xdd_d or fdd_d) and the errors E = dx (the task
+    error x_d - x, from the model for orientation axes) or f_d - f, Ed = xd_d - xd or fd_d - fdot, on
+    the motion or force axes."""
     acc = np.where(axes, fdd_d, xdd_d)
-    E = np.where(axes, f_d - f, x_d - x)
+    E = np.where(axes, f_d - f, dx)
     Ed = np.where(axes, fd_d - fdot, xd_d - xd)
     return acc, E, Ed
 
@@ -77,7 +78,8 @@ def hybrid_error(x, x_d, f, f_d, force_axes):
 def hybrid_servo(x, xd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes, K_e, gains_T, gains_N, int_E=None):
     """F' (m,) in m/s^2: F_T = xdd_d + K_Tv Ed_T + K_Tp E_T (+ K_Ti int E_T), F_N = K_e^-1 (fdd_d + ...).
 
-    All task vectors (m,) (entries of the other subspace ignored but must be finite); K_e in N/m,
+    All task vectors (m,) (entries of the other subspace ignored but must be finite; a position task
+    space: E = x_d - x, for orientation axes use hybrid(), which asks the model); K_e in N/m,
     scalar or (m,); gains_T / gains_N: kp, kv, ki per selected axis or per all m axes (None when that
     subspace is empty); int_E (m,) the integral of hybrid_error().
     """
@@ -89,7 +91,7 @@ def hybrid_servo(x, xd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes,
     K_e = _stiffness(axes, validation.per_entry('K_e', K_e, m))
     gains = axis_gains(gains_T, gains_N, axes)
     int_E = validation.optional_vector('int_E', int_E, m)
-    acc, E, Ed = _hybrid_errors(x, xd, x_d, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes)
+    acc, E, Ed = _hybrid_errors(x_d - x, xd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes)
     return validation.result('F', _hybrid_servo(acc, E, Ed, gains, K_e, int_E))
 
 
@@ -113,7 +115,8 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
     int_E = validation.optional_vector('int_E', int_E, m)
     x, J, Jdot_qd = model._task(q, qd)
     check_jacobian(J)
-    acc, E, Ed = _hybrid_errors(x, J @ qd, x_d, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes)
+    acc, E, Ed = _hybrid_errors(model._task_difference(x_d, x), J @ qd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d,
+                                axes)
     F = validation.result('F', _hybrid_servo(acc, E, Ed, gains, K_e, int_E))
     qdd_0 = _posture_acceleration(q, qd, q_posture, kp0, kv0)
     return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, np.where(axes, f, 0.0), qdd_0))
@@ -169,13 +172,17 @@ class Hybrid(Law):
         return self.gains.ki.copy(), self.gains.kv.copy()
 
     def errors(self, tick):
-        """Motion axes: x_d = fk(q_d), xd_d = J(q_d) qd_d, xdd_d = J(q_d) qdd_d + Jdot qd_d; force axes:
-        the force reference; then the errors of _hybrid_errors."""
+        """Motion axes: the task target (~/target_pose) once one came, else the joint reference in the task
+        space, x_d = fk(q_d), xd_d = J(q_d) qd_d, xdd_d = J(q_d) qdd_d + Jdot qd_d; force axes: the force
+        reference; then the errors of _hybrid_errors."""
         axes = self.axes
-        x_d, xd_d, xdd_d = self.model._task_motion(tick.q_d, tick.qd_d, tick.qdd_d)
+        target = tick.target
+        x_d, xd_d, xdd_d = target if target is not None else self.model._task_motion(tick.q_d, tick.qd_d,
+                                                                                      tick.qdd_d)
         f, fdot, f_d, fd_d, fdd_d = (self._on_force_axes(v) for v in (tick.f, tick.fdot, tick.f_d, tick.fd_d,
                                                                       tick.fdd_d))
-        acc, tick.E, tick.Ed = _hybrid_errors(tick.x, tick.xd, x_d, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes)
+        acc, tick.E, tick.Ed = _hybrid_errors(self.model._task_difference(x_d, tick.x), tick.xd, xd_d, xdd_d, f, fdot,
+                                              f_d, fd_d, fdd_d, axes)
         tick.ref = (np.where(axes, f_d, x_d), np.where(axes, fd_d, xd_d), acc)
         self.f_e = f
 

@@ -10,7 +10,7 @@ gives Xdd = F in closed loop with the contact force f_e (the robot's dynamics be
 M qdd + C qd + g + J^T f_e = tau), and the posture acceleration qdd_0 acts in the null space only.
 For a Cartesian robot (J = I) it is the lecture's tau = M_x F + C_x + g_x + f_e (3.1). The same
 torque in joint-space form, which is how it is evaluated (one RNEA call, M^-1 by Cholesky, an
-m x m solve):
+m x m inverse):
 
     tau = M qdd* + C qd + g + J^T f_e,  qdd* = qdd_0 + Jbar (F - Jdot qd - J qdd_0)
         = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e).
@@ -35,13 +35,19 @@ def check_jacobian(J):
         raise ArgumentError('q', f'task Jacobian singular or nearly (singular values {sv.tolist()})')
 
 
-def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0):
-    """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e), Lambda^-1 = J M^-1 J^T.
+def _task_inertia(model, q, J):
+    """The operational-space inertia Lambda = (J M^-1 J^T)^-1, (m, m), kg and kg m^2; J full rank."""
+    return np.linalg.inv(J @ model._Minv(q) @ J.T)
 
-    Checked arrays: q, qd, qdd_0 (n,); J (m, n) full rank (check_jacobian); Jdot_qd, F (m/s^2), f_e (N) (m,)."""
-    Minv_JT = model._Minv(q) @ J.T
-    y = np.linalg.solve(J @ Minv_JT, F - Jdot_qd - J @ qdd_0)
-    return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (y + f_e)
+
+def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda=None):
+    """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e), Lambda = (J M^-1 J^T)^-1.
+
+    Checked arrays: q, qd, qdd_0 (n,); J (m, n) full rank (check_jacobian); Jdot_qd, F (m/s^2), f_e (N) (m,);
+    Lambda: the task inertia when the caller has it already (_task_inertia)."""
+    if Lambda is None:
+        Lambda = _task_inertia(model, q, J)
+    return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (Lambda @ (F - Jdot_qd - J @ qdd_0) + f_e)
 
 
 def _posture_acceleration(q, qd, q_posture, kp0, kv0):

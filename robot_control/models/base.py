@@ -149,6 +149,33 @@ class RobotModel(ABC):
         """(x, J, Jdot qd) at (q, qd): (m,), (m, n), (m,)."""
         return self._fk(q), self._J(q), self._Jdot_qd(q, qd)
 
+    def _task_difference(self, x_d, x):
+        """The task error x_d - x, (m,) (a model with orientation axes measures them on SO(3))."""
+        return x_d - x
+
+    def task_difference(self, x_d, x):
+        """x_d "minus" x in the task space, (m,): the error the task-space laws servo."""
+        self._check_task()
+        return self._task_difference(validation.vector('x_d', x_d, self.task_dim),
+                                     validation.vector('x', x, self.task_dim))
+
+    #: the frame task positions are expressed in (a pose target's header.frame_id names it)
+    base_frame = 'world'
+
+    def task_position(self, position, quaternion):
+        """The task position (m,) of a pose: position (3,) m, unit quaternion (4,) (x, y, z, w). Closed
+        forms take the position components their axes name (x, y, z: the lecture's frame)."""
+        self._check_task()
+        return np.array([position['xyz'.index(a)] for a in self.task_axes])
+
+    def task_pose(self, x):
+        """(position (3,), quaternion (4,)) of a task position x (m,): the inverse of task_position."""
+        self._check_task()
+        position = np.zeros(3)
+        for a, v in zip(self.task_axes, validation.vector('x', x, self.task_dim)):
+            position['xyz'.index(a)] = v
+        return position, np.array([0.0, 0.0, 0.0, 1.0])
+
     def _task_motion(self, q, qd, qdd):
         """(x, xd, xdd) = (fk(q), J qd, J qdd + Jdot qd), each (m,): a joint motion seen in the task space."""
         J = self._J(q)

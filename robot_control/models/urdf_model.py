@@ -23,6 +23,9 @@ from robot_control.validation import ArgumentError
 #: world axes at the tip point, the frame of J and Jdot qd
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
+#: task spaces of a URDF model: their axes (the frame's position, then its orientation)
+TASK_SPACES = {'position': ('x', 'y', 'z'), 'pose': ('x', 'y', 'z', 'rx', 'ry', 'rz')}
+
 #: directory of the shipped URDFs
 URDF_DIR = urdf_files.DIR
 #: the lookup of a URDF by name (robot_control.urdf.resolve)
@@ -121,15 +124,27 @@ class UrdfModel(RobotModel):
       in URDF tree order). Revolute, prismatic and continuous joints can be selected.
     tip: frame (link) name for fk/J/Jdot_qd; None -> no task space. A joint named like a link
       keeps the link's name for the link: its own frame is '<name> (joint)'.
+    task_space: 'position' (x, y, z of the tip frame's origin, m) or 'pose' (also rx, ry, rz: its
+      orientation as the rotation vector log3(R), rad; velocities are the frame's twist, angular
+      velocity in world axes, and the orientation error is log3(R_d R^T), see _task_difference).
+    payload: None, or (mass kg, com (3,) m in the tip frame): a solid sphere carried by the tip
+      (robot_control.urdf.with_payload, the same the simulator can carry).
     q_locked: positions of the other joints, a mapping {name: position} (rad or m; unnamed
       ones at neutral), or a full Pinocchio configuration (length of the URDF's nq, unit
       (cos, sin) pairs and quaternions).
     gravity: world gravity vector, m/s^2.
     """
 
-    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -units.GRAVITY)):
+    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -units.GRAVITY),
+                 task_space='position', payload=None):
         gravity = validation.vector('gravity', gravity, 3)
+        if task_space not in TASK_SPACES:
+            raise ArgumentError('task_space', f'expected one of {list(TASK_SPACES)}, got {task_space!r}')
         xml, where = urdf_files.read(urdf)
+        if payload is not None:
+            if tip is None:
+                raise ArgumentError('payload', 'a payload needs the tip that carries it')
+            xml = urdf_files.with_payload(xml, tip, *payload)
         full = _parse(xml, where)
         self.source = where                  # file path, or 'URDF XML string'
         movable = tuple(full.names[1:])
@@ -148,8 +163,10 @@ class UrdfModel(RobotModel):
         self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # CRBA fills the upper triangle only
         self._limits(model, joints)
         self.tip, self.frame_id, self.task_axes = None, None, ()
+        self.task_space = task_space
         if tip is not None:
-            self.tip, self.frame_id, self.task_axes = tip, _frame(model, tip), ('x', 'y', 'z')
+            self.tip, self.frame_id, self.task_axes = tip, _frame(model, tip), TASK_SPACES[task_space]
+        self._rows = slice(0, len(self.task_axes))    # rows of the frame's 6-D quantities in the task space
 
     def _limits(self, model, joints):
         iv = self._map.iv
@@ -221,45 +238,87 @@ class UrdfModel(RobotModel):
         return self._map.matrix(pin.cholesky.computeMinv(model, data))
 
     def _fk(self, q):
-        """World position of the tip frame's origin, m, (3,)."""
+        """The tip frame's origin, m, (3,); with the pose task space also log3(R), rad: (6,)."""
         pin.forwardKinematics(self.model, self._data, self._map.q(q))
-        return pin.updateFramePlacement(self.model, self._data, self.frame_id).translation.copy()
+        return self._pose(pin.updateFramePlacement(self.model, self._data, self.frame_id))
 
     def _J(self, q):
-        """Linear Jacobian of the tip point, world axes, (3, n)."""
+        """Jacobian of the tip frame in world axes (LOCAL_WORLD_ALIGNED): linear rows, then (pose) angular, (m, n)."""
         jac = pin.computeFrameJacobian(self.model, self._data, self._map.q(q), self.frame_id, LWA)
-        return self._columns(jac.reshape(6, self.model.nv)[:3])   # eigenpy returns (6,) when nv == 1
+        return self._columns(jac.reshape(6, self.model.nv)[self._rows])   # eigenpy returns (6,) when nv == 1
 
     def _Jdot_qd(self, q, qd):
-        """The tip point's classical acceleration at qdd = 0, world axes, (3,)."""
+        """The tip frame's classical acceleration at qdd = 0 (linear, then angular), world axes, (m,)."""
         pin.forwardKinematics(self.model, self._data, self._map.q(q), self._map.v(qd), self._zero)
-        return pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id, LWA).linear.copy()
+        return self._motion(pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id, LWA))
 
     def _task(self, q, qd):
         """(x, J, Jdot qd) from one kinematics pass at (q, qd, qdd = 0)."""
         model, data, fid = self.model, self._data, self.frame_id
         pin.forwardKinematics(model, data, self._map.q(q), self._map.v(qd), self._zero)
-        x = pin.updateFramePlacement(model, data, fid).translation.copy()
-        jdot_qd = pin.getFrameClassicalAcceleration(model, data, fid, LWA).linear.copy()
+        x = self._pose(pin.updateFramePlacement(model, data, fid))
+        jdot_qd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         pin.computeJointJacobians(model, data)                                # placements computed above
-        jac = self._columns(pin.getFrameJacobian(model, data, fid, LWA).reshape(6, model.nv)[:3])
+        jac = self._columns(pin.getFrameJacobian(model, data, fid, LWA).reshape(6, model.nv)[self._rows])
         return x, jac, jdot_qd
 
     def _task_motion(self, q, qd, qdd):
         """(x, J qd, J qdd + Jdot qd) of the tip from one second-order kinematics pass."""
         model, data, fid = self.model, self._data, self.frame_id
         pin.forwardKinematics(model, data, self._map.q(q), self._map.v(qd), self._map.v(qdd, self._a))
-        x = pin.updateFramePlacement(model, data, fid).translation.copy()
-        xd = pin.getFrameVelocity(model, data, fid, LWA).linear.copy()
-        xdd = pin.getFrameClassicalAcceleration(model, data, fid, LWA).linear.copy()
+        x = self._pose(pin.updateFramePlacement(model, data, fid))
+        xd = self._motion(pin.getFrameVelocity(model, data, fid, LWA))
+        xdd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         return x, xd, xdd
+
+    def _task_difference(self, x_d, x):
+        """x_d - x on the position axes; log3(R_d R^T) on the orientation axes (world axes, rad)."""
+        if self.task_space == 'position':
+            return x_d - x
+        rotation = pin.log3(pin.exp3(x_d[3:]) @ pin.exp3(x[3:]).T)
+        return np.concatenate([x_d[:3] - x[:3], rotation])
+
+    @property
+    def base_frame(self):
+        """The URDF's root link: the frame of fk and of pose targets."""
+        return self.model.frames[1].name
+
+    def task_position(self, position, quaternion):
+        """[position, log3(R(quaternion))] with the pose task space, else the position (3,)."""
+        self._check_task()
+        position = validation.vector('position', position, 3)
+        if self.task_space == 'position':
+            return position.copy()
+        x, y, z, w = validation.vector('quaternion', quaternion, 4)
+        return np.concatenate([position, pin.log3(pin.Quaternion(w, x, y, z).normalized().toRotationMatrix())])
+
+    def task_pose(self, x):
+        """(position, quaternion (x, y, z, w)) of a task position."""
+        self._check_task()
+        x = validation.vector('x', x, self.task_dim)
+        if self.task_space == 'position':
+            return x.copy(), np.array([0.0, 0.0, 0.0, 1.0])
+        return x[:3].copy(), pin.Quaternion(pin.exp3(x[3:])).coeffs().copy()
+
+    def _pose(self, placement):
+        """The task position of a frame placement: origin (3,), then (pose) log3 of its rotation (3,)."""
+        if self.task_space == 'position':
+            return placement.translation.copy()
+        return np.concatenate([placement.translation, pin.log3(placement.rotation)])
+
+    def _motion(self, motion):
+        """A frame's velocity or acceleration in the task space: linear (3,), then (pose) angular (3,)."""
+        if self.task_space == 'position':
+            return motion.linear.copy()
+        return np.concatenate([motion.linear, motion.angular])
 
     def _columns(self, jac):
         """Columns of a (k, nv) Jacobian in joint order, (k, n) (a new array)."""
         return jac.copy() if self._map.identity else jac[:, self._map.iv]
 
     def __repr__(self):
-        return f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r})'
+        return (f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r}, '
+                f'task_space={self.task_space!r})')
 
 
 def _limit(values):

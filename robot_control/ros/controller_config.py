@@ -103,7 +103,9 @@ class ConfigBuilder:
             contact_max_travel=values['contact_max_travel'], contact_max_speed=values['contact_max_speed'],
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
-            stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'])
+            stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
+            cartesian_stiffness=values['cartesian_stiffness'], cartesian_damping=values['cartesian_damping'] or None,
+            cartesian_damping_ratio=values['cartesian_damping_ratio'], max_pose_error=values['max_pose_error'])
         q_d = values['q_d']
         if q_d and len(q_d) != model.n:
             raise ParameterError('q_d', f'expected empty or {model.n} values (one per joint), got {len(q_d)}')
@@ -113,7 +115,8 @@ class ConfigBuilder:
         """The model of `values` (the last one when its parameters did not change)."""
         params = {k[len(MODEL_PARAMS):]: v for k, v in values.items() if k.startswith(MODEL_PARAMS)}
         key = (values['model'], tuple(sorted(params.items())), values['urdf'], values['robot_description'],
-               values['tip'], values['joints'], self.description)
+               values['tip'], values['joints'], values['task_space'], values['payload.mass'],
+               tuple(values['payload.com']), self.description)
         if key != self._model_key:
             self._model = self._make_model(values, params)
             self._model_key = key
@@ -133,8 +136,10 @@ class ConfigBuilder:
             raise ParameterError('urdf', "model 'urdf' needs urdf (file or shipped name), robot_description "
                                          '(XML text) or a URDF on the robot_description topic')
         try:
+            payload = (values['payload.mass'], values['payload.com']) if values['payload.mass'] else None
             return make_model('urdf', urdf=source, joints=values['joints'] or None, tip=values['tip'] or None,
-                              gravity=(0.0, 0.0, -params['gravity']))
+                              gravity=(0.0, 0.0, -params['gravity']), task_space=values['task_space'],
+                              payload=payload)
         except ArgumentError as exc:
             if exc.name == 'urdf' and values['robot_description']:
                 raise ParameterError('robot_description', exc.reason) from None

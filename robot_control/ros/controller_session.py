@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.clock import Clock, ClockType
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
@@ -35,7 +35,7 @@ from robot_control.ros.throttle import Throttle
 from robot_control.validation import ArgumentError
 
 #: rejected-input sources, in the order /diagnostics lists them
-INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench')
+INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
 #: s of wall time a state waits for the wrench of its own tick (paired streams only, core.pairing)
 WRENCH_WAIT = 0.005
 #: smallest watchdog check period, s
@@ -150,6 +150,9 @@ class ControllerSession:
                       node.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory,
                                                REFERENCE_QOS),
                       node.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference,
+                                               REFERENCE_QOS),
+                      node.create_subscription(PoseStamped, '~/target_pose', self._on_target_pose, REFERENCE_QOS),
+                      node.create_subscription(WrenchStamped, '~/target_wrench', self._on_target_wrench,
                                                REFERENCE_QOS)]
         self._watchdog_timer = self._diag_timer = None
         self._set_watchdog(values['state_timeout'])
@@ -289,6 +292,33 @@ class ControllerSession:
             return
         when = f' from t = {self._timeline.time_of(stamp_ns):.6f} s' if ahead else ''
         self._log.info(f'force reference {dict(zip(axes, f_d.tolist()))} N{when}')
+
+    def _on_target_pose(self, msg):
+        """A task-space target for the laws that track one (impedance; hybrid's motion axes): at once, or
+        from header.stamp when that lies ahead of the last state."""
+        cfg = self._core.config
+        try:
+            if cfg.control_law.tracks != 'task':
+                raise ValueError(f'law {cfg.law} follows no task-space target (impedance and hybrid do)')
+            if not self._core.active:
+                raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
+            position, quaternion = conversions.pose_target(msg, cfg.model.base_frame)
+            stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
+            ahead = self._timeline.ahead(stamp_ns)
+            self._core.set_target_pose(cfg.model.task_position(position, quaternion),
+                                       t_start=self._timeline.time_of(stamp_ns) if ahead else None)
+        except ValueError as exc:
+            self._reject('target_pose', exc)
+
+    def _on_target_wrench(self, msg):
+        """A feed-forward wrench on the task axes (impedance), the robot on its environment."""
+        model = self._core.config.model
+        try:
+            if not model.task_dim:
+                raise ValueError('the model has no task space (set tip)')
+            self._core.set_target_wrench(conversions.wrench_force(msg, model.task_axes))
+        except ValueError as exc:
+            self._reject('target_wrench', exc)
 
     def _reject(self, source, reason):
         self.counters.reject(source, reason)

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -45,7 +45,8 @@ def _plausible(a):
     """True when every entry of the float array `a` is finite and |a_i| <= MAX_ABS."""
     values = a.tolist()
     return not values or (max(values) <= MAX_ABS and min(values) >= -MAX_ABS)
-WRENCH_AXES = ('x', 'y', 'z')
+#: the six components of a wrench (force, then torque) and of a pose (position, then rotation vector)
+WRENCH_AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')
 
 
 # -- time --------------------------------------------------------------------------------------
@@ -308,25 +309,33 @@ def joint_trajectory(joints, times, positions, velocities=None, accelerations=No
 
 # -- wrenches ----------------------------------------------------------------------------------
 def _axis_indices(axes):
+    """Index of each task axis in a wrench's six components (force x, y, z, then torque rx, ry, rz)."""
     try:
         return [WRENCH_AXES.index(a) for a in axes]
     except ValueError:
         raise ArgumentError('axes', f'task axes {list(axes)} must be named from {list(WRENCH_AXES)} '
-                         'to be read from a wrench') from None
+                                    'to be read from a wrench') from None
+
+
+def _six(msg):
+    f, t = msg.wrench.force, msg.wrench.torque
+    return (f.x, f.y, f.z, t.x, t.y, t.z)
 
 
 def wrench_force(msg, axes, out=None):
-    """Force components of a geometry_msgs/WrenchStamped along task `axes` (names 'x'|'y'|'z'), N."""
+    """The components of a geometry_msgs/WrenchStamped along task `axes`: force on 'x'|'y'|'z' (N), torque
+    on 'rx'|'ry'|'rz' (N m); ArgumentError naming wrench.force or wrench.torque."""
     idx = _axis_indices(axes)
-    f = msg.wrench.force
-    xyz = (f.x, f.y, f.z)
+    six = _six(msg)
     out = np.empty(len(idx)) if out is None else out
     for k, i in enumerate(idx):
-        out[k] = xyz[i]
-    if not np.isfinite(out).all():
-        raise ArgumentError('wrench.force', f'not finite {list(xyz)}')
-    if not _plausible(out):
-        raise ArgumentError('wrench.force', f'implausible magnitude (> {MAX_ABS:g} N) {list(xyz)}')
+        out[k] = six[i]
+    for part, lo, unit in (('wrench.force', 0, 'N'), ('wrench.torque', 3, 'N m')):
+        mine = [k for k, i in enumerate(idx) if lo <= i < lo + 3]
+        if not np.isfinite(out[mine]).all():
+            raise ArgumentError(part, f'not finite {list(six[lo:lo + 3])}')
+        if not _plausible(out[mine]):
+            raise ArgumentError(part, f'implausible magnitude (> {MAX_ABS:g} {unit}) {list(six[lo:lo + 3])}')
     return out
 
 
@@ -343,12 +352,49 @@ def wrench_stamped(force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), stamp_ns=0, fr
 
 
 def wrench_along(axes, values, stamp_ns=0, frame_id=''):
-    """WrenchStamped whose force has `values` on task `axes` ('x'|'y'|'z') and 0 elsewhere."""
+    """WrenchStamped with `values` on task `axes` (force 'x'|'y'|'z', torque 'rx'|'ry'|'rz'), 0 elsewhere."""
     values = validation.vector('values', values, len(axes))
-    force = [0.0, 0.0, 0.0]
+    six = [0.0] * 6
     for i, v in zip(_axis_indices(axes), values):
-        force[i] = float(v)
-    return wrench_stamped(force, stamp_ns=stamp_ns, frame_id=frame_id)
+        six[i] = float(v)
+    return wrench_stamped(six[:3], six[3:], stamp_ns=stamp_ns, frame_id=frame_id)
+
+
+# -- poses -----------------------------------------------------------------------------------------
+#: a quaternion's norm outside this range is not a rotation given with rounding: refused
+QUATERNION_NORM = (0.5, 2.0)
+
+
+def pose_target(msg, base_frame):
+    """geometry_msgs/PoseStamped in the model's base frame -> (position (3,) m, unit quaternion (4,) x, y,
+    z, w); the model turns them into its task position (RobotModel.task_position).
+
+    header.frame_id '' or `base_frame`; a quaternion of norm in QUATERNION_NORM is normalised, any
+    other is refused; finite, plausible values. ArgumentError naming the field."""
+    frame = msg.header.frame_id
+    if frame not in ('', base_frame):
+        raise ArgumentError('header.frame_id', f"expected the model's base frame {base_frame!r} (or ''), "
+                                               f'got {frame!r}')
+    p, o = msg.pose.position, msg.pose.orientation
+    position = np.array([p.x, p.y, p.z])
+    if not (np.isfinite(position).all() and _plausible(position)):
+        raise ArgumentError('pose.position', f'expected finite values within {MAX_ABS:g} m, got {position.tolist()}')
+    quat = np.array([o.x, o.y, o.z, o.w])
+    norm = float(np.linalg.norm(quat)) if np.isfinite(quat).all() else float('nan')
+    if not QUATERNION_NORM[0] <= norm <= QUATERNION_NORM[1]:
+        raise ArgumentError('pose.orientation', f'not a rotation: quaternion {quat.tolist()} of norm {norm:g}')
+    return position, quat / norm
+
+
+def pose_stamped(position, quaternion=(0.0, 0.0, 0.0, 1.0), stamp_ns=0, frame_id=''):
+    """geometry_msgs/PoseStamped of a position (3,) m and a quaternion (x, y, z, w)."""
+    msg = PoseStamped()
+    ns_to_stamp(stamp_ns, msg.header.stamp)
+    msg.header.frame_id = frame_id
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = (float(v) for v in position)
+    o.x, o.y, o.z, o.w = (float(v) for v in quaternion)
+    return msg
 
 
 # -- diagnostics -------------------------------------------------------------------------------

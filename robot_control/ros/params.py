@@ -81,10 +81,11 @@ def _controller_urdf(value, values):
 
 
 def task_axes_rule(model):
-    """force_axes among the model's task axes: known for a closed form; a URDF model has x, y, z with a tip."""
+    """force_axes among the model's task axes: known for a closed form; a URDF model with a tip has x, y, z
+    (task_space position) or x, y, z, rx, ry, rz (pose)."""
     if model in CLOSED_FORM:
         return subset_of(CLOSED_FORM[model].task_axes, "the model's task axes")
-    return custom("subset of the task axes (x, y, z with a tip)")
+    return custom('subset of the task axes (with a tip: x, y, z; task_space pose also rx, ry, rz)')
 
 
 def rows(values):
@@ -107,7 +108,15 @@ def rows(values):
         Row('robot_description', 'string', '', "model 'urdf': URDF XML text (wins over urdf when non-empty)",
             read_only=True),
         Row('tip', 'string', get('tip', ''),
-            "model 'urdf': task frame (link) for fk/J, needed by the force and hybrid laws", read_only=True),
+            "model 'urdf': task frame (link) for fk/J, needed by the task-space laws (force, hybrid, impedance)",
+            read_only=True),
+        Row('task_space', 'string', 'position',
+            "model 'urdf': the tip's task space: position (x, y, z, m) or pose (also rx, ry, rz: its orientation "
+            'as a rotation vector, rad; errors on SO(3))', [one_of(('position', 'pose'))], read_only=True),
+        Row('payload.mass', 'double', 0.0, "model 'urdf': mass carried by the tip, kg; 0 = none", [gt_eq(0)],
+            read_only=True, aliases=('payload',)),
+        Row('payload.com', 'double_array', (0.0, 0.0, 0.0), "model 'urdf': the payload's centre of mass in the "
+            'tip frame, m', [size(3, 'coordinate')], read_only=True),
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
         Row('zeta', 'double', 1.0, 'designed damping ratio, dimensionless',
@@ -155,6 +164,17 @@ def rows(values):
         Row('posture_kp', 'double', 25.0, 'null-space posture stiffness (hybrid, redundant arms), 1/s^2',
             [gt_eq(0)]),
         Row('posture_kv', 'double', 10.0, 'null-space posture damping (hybrid, redundant arms), 1/s', [gt_eq(0)]),
+        Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
+            'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
+            [size(6, 'pose axis'), gt_eq(0)]),
+        Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio of the designed damping '
+            'D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
+            [gt_eq(0)]),
+        Row('cartesian_damping', 'double_array', (), 'impedance: explicit damping along x, y, z (N s/m) and '
+            'rx, ry, rz (N m s/rad); empty = designed from cartesian_damping_ratio',
+            [size(6, 'pose axis', empty_ok=True), gt_eq(0)]),
+        Row('max_pose_error', 'double_array', (0.1, 0.5), 'impedance (and hybrid toward a target_pose): largest '
+            'position (m) and rotation (rad) error fed to the law', [size(2, 'bound'), gt(0)]),
         Row('contact_max_travel', 'double', 0.05,
             'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
             'does not explain before the force axis is held in position, m; .inf = off', [gt(0)], inf=True),
