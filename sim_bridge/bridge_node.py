@@ -70,7 +70,7 @@ def make_world(cfg):
         surface = dataclasses.replace(scenarios.get(cfg.scenario).surface, k_e=cfg.k_e, x_e=cfg.x_e)
     return World(cfg.scenario or None, gui=cfg.gui, dt=cfg.physics_step, params=cfg.sim_params or None,
                  urdf=cfg.urdf or None, joints=cfg.joints, q0=cfg.initial_positions, surface=surface,
-                 disturbance=dist)
+                 disturbance=dist, payload=cfg.payload)
 
 
 class SimBridge(ParameterNode):

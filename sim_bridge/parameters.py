@@ -113,6 +113,10 @@ def rows(values):
             [size('joints', 'joint', empty_ok=True)]),
         Row('disturbance.cartesian_force', 'double_array', (0.0, 0.0, 0.0),
             'Constant disturbance force at the tip, N, world frame (x, y, z).', [size(3, empty_ok=True)]),
+        _fixed('payload.mass', 'double', 0.0, 'Mass carried by the tip of the simulated robot, kg (a solid sphere); '
+               '0 = none. The controller may be told of it (its payload.mass) or not.', [gt_eq(0)]),
+        _fixed('payload.com', 'double_array', (0.0, 0.0, 0.0), "The payload's centre of mass in the tip link's "
+               'frame, m.', [size(3)]),
     ]
     for key, value in sorted((sc.params if sc else {}).items()):
         out.append(_fixed(f'{SIM_PARAMS}{key}', 'double', float(value),
@@ -160,6 +164,7 @@ class BridgeConfig:
     disturbance_joint_torque: np.ndarray
     disturbance_cartesian_force: np.ndarray
     sim_params: dict
+    payload: tuple
     wrench_frame_id: str
     diagnostics_period: float
     gui: bool
@@ -215,6 +220,7 @@ def build(values):
         surface_enable=v['surface.enable'], k_e=v['surface.k_e'], x_e=v['surface.x_e'],
         disturbance_joint_torque=_vector(v['disturbance.joint_torque'], n),
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
+        payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
         wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], gui=v['gui'])
 
 

@@ -84,7 +84,19 @@ def _surface(sc, surface):
     return surfaces.check_surface(surface)
 
 
-def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir):
+def _with_payload(path, tip, payload, tmpdir):
+    """A copy of the URDF at `path` whose tip carries the payload (robot_control.urdf.with_payload)."""
+    if tip is None:
+        raise ArgumentError('payload', 'needs a tip link (tip=...)')
+    xml, _ = urdf_files.read(path)
+    xml = urdf_files.with_absolute_meshes(xml, os.path.dirname(os.path.abspath(path)))
+    out = os.path.join(tmpdir, 'with_payload.urdf')
+    with open(out, 'w', encoding='utf-8') as f:
+        f.write(urdf_files.with_payload(xml, tip, *payload))
+    return out
+
+
+def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payload, tmpdir):
     """The build specification; every check that can fail before PyBullet runs."""
     truth, model, gravity = _truth(sc, params)
     closed_form = model is not None
@@ -111,6 +123,8 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir
         raise ArgumentError('surface', 'needs a tip link (tip=...)')
     if wall is not None and not closed_form:
         path = surfaces.probe_urdf(path, tip, tmpdir)
+    if payload is not None:
+        path = _with_payload(path, tip, payload, tmpdir)
     spring = (model.k, model.b) if closed_form and sc.model == 'mass_spring_cubic' else None
     damping = validation.scalar('surface_damping', surface_damping, nonnegative=True)
     return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring)
@@ -150,11 +164,12 @@ class World:
     urdf, joints, q0, tip: override the scenario's URDF file, joint names (command order),
       start positions (rad or m) and tip link.
     surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.
+    payload: None or (mass kg, com (3,) m in the tip link's frame): robot_control.urdf.with_payload.
     disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
     """
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
-                 surface=True, disturbance=None, tip=None, surface_damping=0.0):
+                 surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None):
         self.scenario = _scenario(scenario)
         self.dt_ns = _whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
@@ -162,7 +177,7 @@ class World:
         self._client = None
         try:
             self._spec = _resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
-                                  self._tmpdir)
+                                  payload, self._tmpdir)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
             self._client = p.connect(p.GUI if gui else p.DIRECT)
             if self._client < 0:

@@ -52,6 +52,18 @@ def read(urdf):
         return f.read(), path
 
 
+def with_absolute_meshes(xml, base):
+    """URDF text `xml` whose relative mesh file names are made absolute against directory `base` (the
+    original file's), so the text can be written and loaded anywhere."""
+    import xml.etree.ElementTree as ET
+    root = ET.fromstring(xml.lstrip())
+    for mesh in root.iter('mesh'):
+        name = mesh.get('filename', '')
+        if name and '://' not in name and not os.path.isabs(name):
+            mesh.set('filename', os.path.join(base, name))
+    return ET.tostring(root, encoding='unicode')
+
+
 #: radius of the solid sphere a payload is modelled as, m (its rotational inertia 2/5 m r^2)
 PAYLOAD_RADIUS = 0.02
 
