@@ -106,8 +106,11 @@ def _law(name, core, counters):
     guard = core.contact_guard
     if guard is not None and guard.active:
         level, message = 'ERROR', f'{message}; {guard.reason}'
+    gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', cfg.gains),
+                                                                                ('force_gains', cfg.force_gains))
+             if servo is not None for g in ('kp', 'kv', 'ki')]
     return (f'{name}: control law', level, message,
-            [('law', cfg.law), ('integral', cfg.integral), ('fallbacks', core.fallbacks),
+            gains + [('law', cfg.law), ('integral', cfg.integral), ('fallbacks', core.fallbacks),
              ('contact_trips', guard.trips if guard is not None else 0),
              ('tick_mean_us', round(counters.tick_mean_us, 1)), ('tick_max_us', round(counters.tick_max_ns / 1e3, 1)),
              ('ticks', counters.tick_count)])

@@ -170,6 +170,7 @@ class ControllerNode(ParameterNode, LifecycleNode):
             return TransitionCallbackReturn.FAILURE
         self.session = ControllerSession(self, snapshot)
         cfg = snapshot.config
+        self._params.report(params.gains_in_force(cfg))
         self.get_logger().info(
             f'ready: law {cfg.law}{" (PID)" if cfg.integral else ""}, model {snapshot.values["model"]}, '
             f'joints {list(cfg.joints)}, force axes {list(cfg.force_axes)}, '
@@ -205,6 +206,7 @@ class ControllerNode(ParameterNode, LifecycleNode):
         """After the engine committed a run-time change: the controller's new configuration (when configured)."""
         if self.session is not None:
             self.session.apply(old, snapshot, changed)
+            self._params.report(params.gains_in_force(snapshot.config))
         self.get_logger().info(f'parameters set: {sorted(changed)}')
 
 

@@ -107,6 +107,7 @@ class ParameterEngine:
     def __init__(self, node, table, build, apply=None, deferred=False):
         self._node, self._build, self._apply = node, build, apply
         self._pending = None
+        self._reporting = False
         self._overrides = node.start_up_overrides
         self.rows, values = table.resolve(self._declare)
         self._refuse_unknown()
@@ -210,9 +211,23 @@ class ParameterEngine:
             out.append(p)
         return out
 
+    def report(self, values):
+        """Write {name: value} to reported rows (what the node has in force), the one way they change."""
+        self._reporting = True
+        try:
+            self._node.set_parameters([Parameter(name, TYPES[self.rows[name].type],
+                                                 list(value) if self.rows[name].is_array else value)
+                                       for name, value in values.items()])
+        finally:
+            self._reporting = False
+
     def _on_set(self, parameters):
         self._pending = None
-        changes = {p.name: p.value for p in parameters if p.name in self.rows}
+        reported = [p.name for p in parameters if p.name in self.rows and self.rows[p.name].reported]
+        if reported and not self._reporting:
+            return SetParametersResult(successful=False, reason=f'{reported[0]}: read-only: '
+                                                                f'{self.rows[reported[0]].description}')
+        changes = {p.name: p.value for p in parameters if p.name in self.rows and not self.rows[p.name].reported}
         if not changes:         # use_sim_time and other parameters of rclpy's own
             return SetParametersResult(successful=True)
         try:
@@ -223,7 +238,7 @@ class ParameterEngine:
 
     def _post_set(self, parameters):
         pending, self._pending = self._pending, None
-        changed = frozenset(p.name for p in parameters if p.name in self.rows)
+        changed = frozenset(p.name for p in parameters if p.name in self.rows and not self.rows[p.name].reported)
         if not changed:
             return
         if pending is None or pending[0] is not parameters:     # not expected: _on_set validated this list

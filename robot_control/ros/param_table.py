@@ -205,7 +205,9 @@ def custom(text, check=None):
 class Row:
     """One parameter. `default` None = required (no default in this configuration); array defaults
     are tuples. `aliases`: the names the library gives this parameter in its errors (a config field,
-    a model argument), so a build error maps back to the parameter. `inf`: a double may be +inf."""
+    a model argument), so a build error maps back to the parameter. `inf`: a double may be +inf.
+    `reported`: the node writes the value (what is in force, e.g. designed gains); a set from outside
+    is refused as read-only."""
 
     name: str
     type: str
@@ -215,6 +217,7 @@ class Row:
     read_only: bool = False
     inf: bool = False
     aliases: tuple = ()
+    reported: bool = False
 
     def __post_init__(self):
         if self.type not in TYPES:

@@ -187,6 +187,7 @@ def rows(values):
         Row('autostart', 'bool', True,
             'configure and activate at start-up (false: wait for lifecycle transitions, e.g. ros2 lifecycle set)',
             read_only=True),
+        *gains_rows(),
         Row('allow_partial_joints_goal', 'bool', False,
             'a trajectory may name some of the joints; the others hold (joint_trajectory_controller)'),
         Row('constraints.goal_time', 'double', 0.0,
@@ -194,6 +195,34 @@ def rows(values):
         Row('constraints.stopped_velocity_tolerance', 'double', 0.01,
             'largest joint speed of a reached goal, rad/s or m/s', [gt_eq(0)]),
     ]
+
+
+#: the gains in force, reported by the node (designed or explicit), per servo
+GAINS = (('kp', '1/s^2 (N m/rad for independent_joint)'), ('kv', '1/s (N m s/rad)'), ('ki', '1/s^3 (N m/(rad s))'))
+
+
+def gains_rows():
+    """gains.kp, kv, ki (the motion servo: per joint, or per task / motion axis for hybrid) and gains.force_kp,
+    kv, ki (per force axis): what the controller computes with, written by it after every change."""
+    rows = []
+    for gain, unit in GAINS:
+        rows.append(Row(f'gains.{gain}', 'double_array', (), f'in force: the motion servo\'s {gain} per joint (hybrid: '
+                        f'per task or motion axis), {unit}; follows every change of {gain}, zeta, omega_res, omega_n',
+                        reported=True))
+    for gain, unit in GAINS:
+        rows.append(Row(f'gains.force_{gain}', 'double_array', (), f'in force: the force servo\'s {gain} per force '
+                        f'axis, {unit.split(" ")[0]}; follows every change of force_{gain}, zeta, omega_res, omega_n',
+                        reported=True))
+    return rows
+
+
+def gains_in_force(config):
+    """{gains.*: tuple} of a ControllerConfig, for the reported rows."""
+    out = {}
+    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.force_gains)):
+        for gain, _ in GAINS:
+            out[f'{prefix}{gain}'] = () if gains is None else tuple(getattr(gains, gain).tolist())
+    return out
 
 
 def constraint_rows(values):

@@ -748,3 +748,19 @@ def test_a_partial_goal_is_refused_unless_allowed_and_an_empty_one_cancels(ros_c
         _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + 300 * DT_NS)
         np.testing.assert_array_equal(ref[1], q)                                    # cancelled: holds q
         assert ctrl.core.goal.outcome == 'cancelled'
+
+
+def test_the_gains_in_force_are_read_only_parameters_that_follow_every_change(ros_context):
+    """Designed from zeta and omega: `ros2 param get /controller gains.kp` gives them (kp itself stays []),
+    they follow a change of zeta, a set from outside is refused, and /diagnostics lists them."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        assert list(ctrl.get_parameter('kp').value) == []
+        assert list(ctrl.get_parameter('gains.kp').value) == [36.0, 36.0]
+        assert list(ctrl.get_parameter('gains.kv').value) == [12.0, 12.0]
+        assert ctrl.set_parameters([Parameter('zeta', value=2.0)])[0].successful
+        assert list(ctrl.get_parameter('gains.kv').value) == [24.0, 24.0]       # 2 zeta w_n, w_n = 6
+        refused = ctrl.set_parameters([Parameter('gains.kp', value=[1.0, 1.0])])[0]
+        assert not refused.successful and refused.reason.startswith('gains.kp: read-only: in force')
+        assert list(ctrl.get_parameter('gains.kp').value) == [36.0, 36.0]
+        law = {s.name.split(': ')[1]: s for s in ctrl.diagnostics()}['control law']
+        assert {v.key: v.value for v in law.values}['gains.kv'] == '[24.0, 24.0]'
