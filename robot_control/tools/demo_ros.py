@@ -94,7 +94,7 @@ class Collector:
 
 
 class RunControl:
-    """The spun node of the demo: reference publishers, the bridge's pause service, the controller's log."""
+    """The demo's control node: reference publishers, the bridge's pause service, the controller's log."""
 
     def __init__(self, context, executor, name='demo'):
         self.node = Node(name, context=context, start_parameter_services=False)
