@@ -21,9 +21,9 @@ IDLE_ROUND = 0.005
 class WithMessageInfo:
     """Subscription callback calling fn(msg, info) with the message's MessageInfo, under either executor.
 
-    rclpy passes a callback that takes two arguments the message and its MessageInfo (a dict with
-    'source_timestamp' and 'received_timestamp', ns); it tells the two kinds apart by the
-    callback's signature, declared here. SingleThreadedExecutor calls callback(msg, info); the
+    rclpy passes the message and its MessageInfo (a dict with 'source_timestamp' and
+    'received_timestamp', ns) to a callback that takes two arguments; it tells the kinds of
+    callback apart by their signature, declared here. SingleThreadedExecutor calls callback(msg, info); the
     EventsExecutor of rclpy 7.1 calls callback((msg, info)), one tuple: both forms are accepted.
     """
 
@@ -43,16 +43,14 @@ class Tap:
     """Raw subscriptions of `node` to `topics` ({name: message class}) with `qos`.
 
     `rows[topic]` is the list of (data, source_ns, received_ns) received so far, in arrival
-    order; the caller may clear or replace it (pop() does).
+    order; the subscription's callback appends to that very list, which pop() empties.
     """
 
     def __init__(self, node, topics, qos):
-        self.node = node
-        self.types = dict(topics)
-        self.rows = {topic: [] for topic in self.types}
+        self.rows = {topic: [] for topic in topics}
         self.subs = {topic: node.create_subscription(cls, topic, WithMessageInfo(_appender(self.rows[topic])), qos,
                                                      raw=True)
-                     for topic, cls in self.types.items()}
+                     for topic, cls in topics.items()}
 
     def count(self, topic=None):
         """Messages held of `topic` (None: of every topic)."""
@@ -64,17 +62,12 @@ class Tap:
         """The rows of `topic` received so far; the tap keeps nothing of them."""
         rows = self.rows[topic]
         out = rows[:]
-        del rows[:]      # the callback appends to this very list
+        del rows[:]
         return out
 
     def publishers(self, topic):
         """Publishers matched by the subscription to `topic`."""
         return self.subs[topic].get_publisher_count()
-
-    def destroy(self):
-        for sub in self.subs.values():
-            self.node.destroy_subscription(sub)
-        self.subs = {}
 
 
 def _appender(rows):
