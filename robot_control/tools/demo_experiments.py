@@ -1,5 +1,5 @@
-"""The demo's experiments: for each scenario a sensible one, and the lecture's experiments of
-issue 5 (disturbance rejection, model error, computed torque vs independent joint, ...).
+"""The demo's experiments: for each scenario a sensible one, and the lecture's experiments
+(disturbance rejection, model error, computed torque vs independent joint, ...).
 
 An Experiment is data: which scenario (config/<scenario>.yaml), parameter overrides for the two
 nodes, the references the demo publishes, the run length and the windows the metrics use.

@@ -160,7 +160,7 @@ def critically_damped(t, e0, omega):
 
 
 def summarize(data, experiment, mode, duration, wall_time_s=None):
-    """The summary.json dict of a run (issue 5 keys plus context)."""
+    """The summary.json dict of a run: the metrics of the module docstring plus the run's context."""
     motion_names, units = data.motion_names, data.motion_units
     e = data.motion_error()
     last = data.window(data.t[-1] - experiment.steady_window if data.samples else None)

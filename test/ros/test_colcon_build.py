@@ -147,3 +147,36 @@ def test_every_config_yaml_is_installed(tmp_path):
     installed_yaml = names(str(prefix / 'share' / PKG / 'config' / '*.yaml'))
     assert installed_yaml == names(str(src / 'config' / '*.yaml'))
     assert 'zz_probe.yaml' in installed_yaml
+
+
+#: rosdep key of each third-party module the package imports (ROS packages: their own name)
+ROSDEP_KEYS = {'numpy': 'python3-numpy', 'pinocchio': 'pinocchio', 'pybullet': 'python3-pybullet-pip',
+               'pybullet_data': 'python3-pybullet-pip', 'matplotlib': 'python3-matplotlib', 'yaml': 'python3-yaml',
+               'rosbags': 'python3-rosbags-pip', 'modern_robotics': 'python3-modern-robotics-pip'}
+
+
+def imported_modules():
+    """Top-level modules imported anywhere in the package's code (tests excluded), but its own and the stdlib's."""
+    import ast
+    found = set()
+    for path in glob.glob(os.path.join(ROOT, 'robot_control', '**', '*.py'), recursive=True) + \
+            glob.glob(os.path.join(ROOT, 'sim_bridge', '**', '*.py'), recursive=True):
+        with open(path, encoding='utf-8') as f:
+            tree = ast.parse(f.read())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                found.update(a.name.split('.')[0] for a in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                found.add(node.module.split('.')[0])
+    return found - set(sys.stdlib_module_names) - {PKG, 'sim_bridge'}
+
+
+def test_package_xml_declares_every_module_the_package_imports():
+    """After a colcon build on a ROS install, `rosdep install` must bring what the nodes and tools import."""
+    import xml.etree.ElementTree as ET
+    root = ET.parse(os.path.join(ROOT, 'package.xml')).getroot()
+    declared = {e.text.strip() for tag in ('exec_depend', 'depend') for e in root.iter(tag)}
+    modules = imported_modules()
+    assert {'matplotlib', 'rosbags', 'rclpy', 'sensor_msgs'} <= modules     # the scan sees the tools and nodes
+    missing = {m: ROSDEP_KEYS.get(m, m) for m in modules if ROSDEP_KEYS.get(m, m) not in declared}
+    assert not missing, f'package.xml lacks <exec_depend> for {missing}'
