@@ -20,6 +20,9 @@ import numpy as np
 
 from robot_control import validation
 
+#: task spaces of a URDF model: their axes (the tip frame's position, then its orientation)
+TASK_SPACES = {'position': ('x', 'y', 'z'), 'pose': ('x', 'y', 'z', 'rx', 'ry', 'rz')}
+
 
 class RobotModel(ABC):
     """Joint-space rigid-body dynamics, with optional task-space kinematics."""

@@ -17,14 +17,11 @@ import pinocchio as pin
 
 from robot_control import units, validation
 from robot_control import urdf as urdf_files
-from robot_control.models.base import RobotModel
+from robot_control.models.base import TASK_SPACES, RobotModel
 from robot_control.validation import ArgumentError
 
 #: world axes at the tip point, the frame of J and Jdot qd
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-#: task spaces of a URDF model: their axes (the frame's position, then its orientation)
-TASK_SPACES = {'position': ('x', 'y', 'z'), 'pose': ('x', 'y', 'z', 'rx', 'ry', 'rz')}
 
 #: directory of the shipped URDFs
 URDF_DIR = urdf_files.DIR

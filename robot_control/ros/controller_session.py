@@ -30,9 +30,9 @@ from robot_control.core.status import Counters, controller_statuses, needs_wrenc
 from robot_control.core.timeline import Timeline
 from robot_control.core.watchdog import StateWatchdog
 from robot_control.ros import cdr, conversions
+from robot_control.ros.reference_inputs import ReferenceInputs
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.ros.throttle import Throttle
-from robot_control.validation import ArgumentError
 
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
@@ -52,21 +52,21 @@ class ControllerSession:
 
     def __init__(self, node, snapshot):
         self._node = node
-        self._log = node.get_logger()
+        self.log = node.get_logger()
         cfg = snapshot.config
         self.active = False
         self._core = ControllerCore(cfg)
         self._joints = cfg.joints
         self._task_axes = cfg.model.task_axes
         self.counters = Counters(INPUTS)
-        self._timeline = Timeline(snapshot.values['state_timeout'])
+        self.timeline = Timeline(snapshot.values['state_timeout'])
         self._watchdog = StateWatchdog(snapshot.values['state_timeout'])
         self._pairing = WrenchPairing()
         self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
         self._contact_trips = 0
-        self._goal_seen = None
+        self._inputs = ReferenceInputs(self)
         self._first_state_ns = None
-        self._allow_partial = snapshot.values['allow_partial_joints_goal']
+        self.allow_partial = snapshot.values['allow_partial_joints_goal']
         self._make_messages(cfg)
         self._apply_references(snapshot.values, initial=True)
         self._make_interfaces(snapshot.values, cfg)
@@ -113,7 +113,7 @@ class ControllerSession:
         self._set_ft_subscription(snapshot.config)
         values = snapshot.values
         self._apply_references(values, changed=changed, old=old.values)
-        self._allow_partial = values['allow_partial_joints_goal']
+        self.allow_partial = values['allow_partial_joints_goal']
         if 'state_timeout' in changed:
             self._set_watchdog(values['state_timeout'])
         if 'diagnostics_period' in changed:
@@ -145,15 +145,14 @@ class ControllerSession:
                                                autostart=False)
         self._ft_sub = None
         self._set_ft_subscription(cfg)
+        inputs = self._inputs
         self._subs = [node.create_subscription(JointState, 'joint_states', self._on_joint_states_raw, CONTROL_QOS,
-                                               raw=True),
-                      node.create_subscription(JointTrajectory, '~/joint_trajectory', self._on_trajectory,
-                                               REFERENCE_QOS),
-                      node.create_subscription(WrenchStamped, '~/wrench_reference', self._on_wrench_reference,
-                                               REFERENCE_QOS),
-                      node.create_subscription(PoseStamped, '~/target_pose', self._on_target_pose, REFERENCE_QOS),
-                      node.create_subscription(WrenchStamped, '~/target_wrench', self._on_target_wrench,
-                                               REFERENCE_QOS)]
+                                               raw=True)] + [
+            node.create_subscription(kind, topic, callback, REFERENCE_QOS)
+            for kind, topic, callback in ((JointTrajectory, '~/joint_trajectory', inputs.on_trajectory),
+                                          (WrenchStamped, '~/wrench_reference', inputs.on_wrench_reference),
+                                          (PoseStamped, '~/target_pose', inputs.on_target_pose),
+                                          (WrenchStamped, '~/target_wrench', inputs.on_target_wrench))]
         self._watchdog_timer = self._diag_timer = None
         self._set_watchdog(values['state_timeout'])
         self._set_diagnostics_timer(values['diagnostics_period'])
@@ -182,7 +181,7 @@ class ControllerSession:
         try:
             f = conversions.wrench_force(msg, self._task_axes)
         except ValueError as exc:  # keep the last valid measurement
-            self._reject('ft_sensor_wrench', exc)
+            self.reject('ft_sensor_wrench', exc)
             return
         self._f_meas[:] = f
         self.counters.wrench_seen = True
@@ -202,9 +201,9 @@ class ControllerSession:
         stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
         try:
             q, qd = self._reader.read(msg)
-            t = self._timeline.accept(stamp_ns, running=self._core.active)
+            t = self.timeline.accept(stamp_ns, running=self._core.active)
         except ValueError as exc:
-            self._reject('joint_states', exc)
+            self.reject('joint_states', exc)
             return
         tau = self._core.update_checked(t, q, qd, self._f_meas)
         self._cmd_pub.publish(self._command_encoder.encode(stamp_ns, effort=self._core.tau_values))
@@ -218,18 +217,18 @@ class ControllerSession:
         recovered = self._watchdog.fresh(self._node.get_clock().now().nanoseconds, time.monotonic_ns())
         self.counters.commands_sent += 1
         if self.counters.commands_sent == 1:
-            self._log.info(f'loop closed: the first command answers the state stamped '
+            self.log.info(f'loop closed: the first command answers the state stamped '
                                    f'{units.seconds(stamp_ns):.3f} s (first state received: '
                                    f'{units.seconds(self._first_state_ns):.3f} s)')
         if self._core.goal.outcome:
-            self._report_goal()
+            self._inputs.report_goal()
         if recovered:
-            self._log.info('joint_states are back: restarting from the current state')
+            self.log.info('joint_states are back: restarting from the current state')
         guard = self._core.contact_guard
         if guard is not None and guard.trips != self._contact_trips:
             self._contact_trips = guard.trips
-            self._log.error(guard.reason)
-            self._publish_diagnostics()
+            self.log.error(guard.reason)
+            self.publish_diagnostics()
         # ~/reference and ~/error are VOLATILE: with no subscriber the message is not even built
         names = self._core.reference_names
         if self._ref_pub.get_subscription_count():
@@ -240,96 +239,18 @@ class ControllerSession:
             self._err_pub.publish(conversions.joint_state(names, stamp_ns, E, Ed, self._core.integral_value,
                                                           out=self._error_msg))
         if recovered:
-            self._publish_diagnostics()
+            self.publish_diagnostics()
 
-    # -- references --------------------------------------------------------------------------------
-    def _on_trajectory(self, msg):
-        """A joint trajectory, as joint_trajectory_controller takes it (robot_control.core.references);
-        an empty one cancels the motion and holds the current position."""
-        try:
-            goal = conversions.trajectory_goal(msg, self._joints, self._allow_partial)
-            if not self._core.active:
-                raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
-            if goal.empty:
-                self._core.hold_position()
-                self.counters.trajectories_accepted += 1
-                self._log.info('empty trajectory: motion cancelled, holding the current position')
-                return
-            t0 = self._core.set_trajectory(goal.times, goal.positions, goal.velocities, goal.accelerations,
-                                           t_start=self._timeline.time_of(goal.stamp_ns))
-        except ValueError as exc:
-            self._reject('joint_trajectory', exc)
-            return
-        self.counters.trajectories_accepted += 1
-        self._log.info(f'trajectory accepted: {goal.times.shape[0]} points over {goal.times[-1]:g} s '
-                               f'from t = {t0:.6f} s')
-
-    def _report_goal(self):
-        """Log a trajectory's outcome once (robot_control.core.tolerances) and put it on /diagnostics."""
-        goal = self._core.goal
-        seen = (goal.goals, goal.outcome)
-        if seen == self._goal_seen or not goal.outcome:
-            return
-        self._goal_seen = seen
-        log = self._log
-        {'succeeded': log.info, 'cancelled': log.info, 'missed': log.warning, 'path': log.error}[goal.outcome](
-            f'trajectory {goal.outcome}: {goal.reason}')
-        self._publish_diagnostics()
-
-    def _on_wrench_reference(self, msg):
-        """A force reference: at once (header.stamp zero or not ahead of the last state), or pending
-        until the first state stamped at or after header.stamp (one pending; a new one replaces it)."""
-        axes = self._core.config.force_axes
-        try:
-            if not axes:
-                raise ArgumentError('force_axes', 'none configured (parameter force_axes)')
-            f_d = conversions.wrench_force(msg, axes)
-            stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
-            ahead = self._timeline.ahead(stamp_ns)
-            self._core.set_force_reference(f_d, t_start=self._timeline.time_of(stamp_ns) if ahead else None)
-        except ValueError as exc:
-            self._reject('wrench_reference', exc)
-            return
-        when = f' from t = {self._timeline.time_of(stamp_ns):.6f} s' if ahead else ''
-        self._log.info(f'force reference {dict(zip(axes, f_d.tolist()))} N{when}')
-
-    def _on_target_pose(self, msg):
-        """A task-space target for the laws that track one (impedance; hybrid's motion axes): at once, or
-        from header.stamp when that lies ahead of the last state."""
-        cfg = self._core.config
-        try:
-            if cfg.control_law.tracks != 'task':
-                raise ValueError(f'law {cfg.law} follows no task-space target (impedance and hybrid do)')
-            if not self._core.active:
-                raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
-            position, quaternion = conversions.pose_target(msg, cfg.model.base_frame)
-            stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
-            ahead = self._timeline.ahead(stamp_ns)
-            self._core.set_target_pose(cfg.model.task_position(position, quaternion),
-                                       t_start=self._timeline.time_of(stamp_ns) if ahead else None)
-        except ValueError as exc:
-            self._reject('target_pose', exc)
-
-    def _on_target_wrench(self, msg):
-        """A feed-forward wrench on the task axes (impedance), the robot on its environment."""
-        model = self._core.config.model
-        try:
-            if not model.task_dim:
-                raise ValueError('the model has no task space (set tip)')
-            self._core.set_target_wrench(conversions.wrench_force(msg, model.task_axes))
-        except ValueError as exc:
-            self._reject('target_wrench', exc)
-
-    def _reject(self, source, reason):
+    def reject(self, source, reason):
         self.counters.reject(source, reason)
         if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.ros.throttle
-            self._log.warning(f'rejected {self.counters.last_rejection}')
+            self.log.warning(f'rejected {self.counters.last_rejection}')
 
     # -- watchdog and diagnostics ------------------------------------------------------------------
     def _set_watchdog(self, timeout):
         if self._watchdog_timer is not None:
             self._node.destroy_timer(self._watchdog_timer)
-        self._watchdog.timeout = self._timeline.max_jump = timeout
+        self._watchdog.timeout = self.timeline.max_jump = timeout
         # on the steady clock: with use_sim_time a dead simulator also stops /clock
         self._watchdog_timer = self._node.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog,
                                                  clock=self._steady)
@@ -338,14 +259,14 @@ class ControllerSession:
         now, steady = self._node.get_clock().now().nanoseconds, time.monotonic_ns()
         if self._core.active and self._watchdog.check(now, steady):
             self._core.stop()
-            self._log.error(f'no joint_states for {self._watchdog.age(now, steady):.3f} s (state_timeout '
+            self.log.error(f'no joint_states for {self._watchdog.age(now, steady):.3f} s (state_timeout '
                                     f'{self._watchdog.timeout:g} s): stopped commanding')
-            self._publish_diagnostics()
+            self.publish_diagnostics()
 
     def _set_diagnostics_timer(self, period):
         if self._diag_timer is not None:
             self._node.destroy_timer(self._diag_timer)
-        self._diag_timer = self._node.create_timer(period, self._publish_diagnostics, clock=self._steady)
+        self._diag_timer = self._node.create_timer(period, self.publish_diagnostics, clock=self._steady)
 
     def diagnostics(self):
         """The DiagnosticStatus list /diagnostics carries now."""
@@ -354,7 +275,7 @@ class ControllerSession:
         return [conversions.diagnostic_status(*status, name)
                 for status in controller_statuses(name, self._core, self._watchdog, age, self.counters)]
 
-    def _publish_diagnostics(self):
+    def publish_diagnostics(self):
         self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self._node.get_clock().now().nanoseconds))
 
     def _apply_references(self, values, initial=False, changed=(), old=None):

@@ -95,9 +95,13 @@ def rows(values):
     if 'joints' not in d and model in CLOSED_FORM:
         d['joints'] = CLOSED_FORM[model].joint_names
     get = d.get
-    per_axis = size('force_axes', 'force axis', empty_ok=True)
-    gains = [custom('empty, or one per joint (hybrid: per task or motion axis)'), gt_eq(0)]
-    return model_param_rows(model, d.get('model_params', {})) + [
+    return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + force_rows(get, model)
+            + motion_rows() + impedance_rows() + node_rows())
+
+
+def robot_rows(get):
+    """The robot: joints, the URDF and its tip, the task space, a payload (defaults `get` from the scenario)."""
+    return [
         Row('joints', 'string_array', get('joints', ()),
             "controlled joint names in model order, matched by name in joint_states; empty = the model's "
             '(a URDF model: all movable joints)', [unique(), custom('closed form: one per model joint')],
@@ -117,6 +121,14 @@ def rows(values):
             read_only=True, aliases=('payload',)),
         Row('payload.com', 'double_array', (0.0, 0.0, 0.0), "model 'urdf': the payload's centre of mass in the "
             'tip frame, m', [size(3, 'coordinate')], read_only=True),
+    ]
+
+
+def servo_rows():
+    """The law and its servo gains: designed from zeta, omega_res, omega_n, or explicit; limits."""
+    gains = [custom('empty, or one per joint (hybrid: per task or motion axis)'), gt_eq(0)]
+    per_axis = size('force_axes', 'force axis', empty_ok=True)
+    return [
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
         Row('zeta', 'double', 1.0, 'designed damping ratio, dimensionless',
@@ -141,8 +153,13 @@ def rows(values):
             [gt(0)], inf=True),
         Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
             '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
-        Row('state_timeout', 'double', 0.5, 'watchdog: no joint_states for this long stops commanding, s '
-            '(node clock: sim time when use_sim_time)', [gt(0)]),
+    ]
+
+
+def force_rows(get, model):
+    """The force axes, the environment, the force reference and the lost-contact guard."""
+    per_axis = size('force_axes', 'force axis', empty_ok=True)
+    return [
         Row('force_axes', 'string_array', get('force_axes', ()),
             "force-controlled task axes (names of the model's task axes, e.g. x)", [unique(), task_axes_rule(model)]),
         Row('k_e', 'double_array', get('k_e', ()), 'environment stiffness per force axis, N/m',
@@ -157,6 +174,18 @@ def rows(values):
             'empty = 0; changes ramp over force_ramp_time', [per_axis]),
         Row('force_ramp_time', 'double', 0.5, 'duration of a force reference change (quintic), s; 0 = step',
             [gt_eq(0)]),
+        Row('contact_max_travel', 'double', 0.05,
+            'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
+            'does not explain before the force axis is held in position, m; .inf = off', [gt(0)], inf=True),
+        Row('contact_max_speed', 'double', 0.5,
+            'lost-contact guard (force, hybrid): largest speed along a force axis before it is held in '
+            'position, m/s; .inf = off', [gt(0)], inf=True),
+    ]
+
+
+def motion_rows():
+    """The joint reference: set-point moves, the null-space posture, trajectory goals and tolerances."""
+    return [
         Row('q_d', 'double_array', (), 'joint set-point, rad or m; empty = hold the start position; '
             'a change starts a quintic move from the current reference over move_time',
             [custom('empty or one per joint')]),
@@ -164,6 +193,19 @@ def rows(values):
         Row('posture_kp', 'double', 25.0, 'null-space posture stiffness (hybrid, redundant arms), 1/s^2',
             [gt_eq(0)]),
         Row('posture_kv', 'double', 10.0, 'null-space posture damping (hybrid, redundant arms), 1/s', [gt_eq(0)]),
+        Row('allow_partial_joints_goal', 'bool', False,
+            'a trajectory may name some of the joints; the others hold (joint_trajectory_controller)'),
+        Row('constraints.goal_time', 'double', 0.0,
+            'time a trajectory may take past its end to reach its goal tolerances, s; 0 = no limit', [gt_eq(0)]),
+        Row('constraints.stopped_velocity_tolerance', 'double', 0.01,
+            'largest joint speed of a reached goal, rad/s or m/s', [gt_eq(0)]),
+
+    ]
+
+
+def impedance_rows():
+    """The impedance law: stiffness, damping, the bound of the pose error."""
+    return [
         Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
             'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
             [size(6, 'pose axis'), gt_eq(0)]),
@@ -175,12 +217,14 @@ def rows(values):
             [size(6, 'pose axis', empty_ok=True), gt_eq(0)]),
         Row('max_pose_error', 'double_array', (0.1, 0.5), 'impedance (and hybrid toward a target_pose): largest '
             'position (m) and rotation (rad) error fed to the law', [size(2, 'bound'), gt(0)]),
-        Row('contact_max_travel', 'double', 0.05,
-            'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
-            'does not explain before the force axis is held in position, m; .inf = off', [gt(0)], inf=True),
-        Row('contact_max_speed', 'double', 0.5,
-            'lost-contact guard (force, hybrid): largest speed along a force axis before it is held in '
-            'position, m/s; .inf = off', [gt(0)], inf=True),
+    ]
+
+
+def node_rows():
+    """The node: watchdog, outputs, lifecycle, and the gains in force it reports."""
+    return [
+        Row('state_timeout', 'double', 0.5, 'watchdog: no joint_states for this long stops commanding, s '
+            '(node clock: sim time when use_sim_time)', [gt(0)]),
         Row('publish_effort_array', 'bool', False,
             'also publish effort_controller/commands (std_msgs/Float64MultiArray, joints order)'),
         Row('diagnostics_period', 'double', 0.5, 'period of /diagnostics, s (wall clock)', [gt(0)]),
@@ -188,12 +232,6 @@ def rows(values):
             'configure and activate at start-up (false: wait for lifecycle transitions, e.g. ros2 lifecycle set)',
             read_only=True),
         *gains_rows(),
-        Row('allow_partial_joints_goal', 'bool', False,
-            'a trajectory may name some of the joints; the others hold (joint_trajectory_controller)'),
-        Row('constraints.goal_time', 'double', 0.0,
-            'time a trajectory may take past its end to reach its goal tolerances, s; 0 = no limit', [gt_eq(0)]),
-        Row('constraints.stopped_velocity_tolerance', 'double', 0.01,
-            'largest joint speed of a reached goal, rad/s or m/s', [gt_eq(0)]),
     ]
 
 

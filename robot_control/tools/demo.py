@@ -38,10 +38,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_control import units
+from robot_control import scenarios, units
+from robot_control.laws import LAWS
 from robot_control.tools import demo_experiments as experiments
+from robot_control.tools import demo_metrics
 from robot_control.tools import demo_procs as procs
-from robot_control import scenarios
 
 NS = units.NS_PER_S
 ROOT = Path(__file__).resolve().parents[2]
@@ -207,9 +208,9 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
     joints = experiment.joints
     units = dict(zip(joints, experiment.units))
     law = experiment.law
-    f_names, f_index = force_axes_of(scenario) if law in ('force', 'hybrid') else ((), ())
-    if law == 'hybrid':
-        units = {a: 'm' for a in ('x', 'y', 'z')}
+    f_names, f_index = force_axes_of(scenario) if LAWS[law].uses_force else ((), ())
+    if LAWS[law].tracks == 'task':
+        units = dict(zip(experiment.task_axes, demo_metrics.task_units(experiment.task_axes)))
 
     say = write or (lambda *a, **k: None)
     result = RunResult(summary={}, out_dir=out_dir)

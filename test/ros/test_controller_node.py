@@ -648,9 +648,9 @@ def test_a_run_of_rejections_calls_the_logger_once_per_throttle_period(ros_conte
         class Logger:
             def warning(self, text, **kwargs):
                 warnings.append(text)
-        ctrl.session._log = Logger()                               # this controller only
+        ctrl.session.log = Logger()                                # this controller only
         for k in range(100):
-            ctrl.session._reject('joint_states', f'bad {k}')
+            ctrl.session.reject('joint_states', f'bad {k}')
         assert ctrl.rejected['joint_states'] == 100 and ctrl.last_rejection == 'joint_states: bad 99'
         assert warnings == ['rejected joint_states: bad 0']
 
