@@ -51,6 +51,31 @@ def _config(config):
     return config
 
 
+def measure_task(cfg, tick, f_meas):
+    """tick.x, xd, J, Jdot_qd; and on the force axes tick.f, fdot (N, N/s) when the law uses force."""
+    tick.x, tick.J, tick.Jdot_qd = cfg.model._task(tick.q, tick.qd)
+    tick.xd = tick.J @ tick.qd
+    if not (cfg.control_law.uses_force and cfg.force_axes):
+        return
+    mask = cfg.force_mask
+    x_n, xd_n = tick.x[mask], tick.xd[mask]
+    f, fdot = _spring_force(x_n, xd_n, cfg.x_e, cfg.k_e, 0.0)      # the lecture's f and fdot = k_e xd
+    if cfg.force_feedback == 'sensor':
+        if f_meas is None:
+            raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
+        f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
+    tick.f, tick.fdot = f + cfg.force_lead_time * fdot, fdot
+
+
+def contact_guard(cfg):
+    """The lost-contact guard of the force axes for laws that use force (None without one, or with no bound)."""
+    law = cfg.control_law
+    if not (law.uses_force and cfg.force_axes) or not (np.isfinite(cfg.contact_max_travel)
+                                                        or np.isfinite(cfg.contact_max_speed)):
+        return None
+    return ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel, cfg.contact_max_speed)
+
+
 class ControllerCore:
     """Per-tick controller: update(t, q, qd, f_meas) -> tau, saturated and finite (see the module docstring).
 
@@ -64,17 +89,14 @@ class ControllerCore:
         self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
         self._integral = IntegralAction(config.integral_dim, config.integral_limit)
         self._tick = Tick()
-        self._tau, self._sat = np.zeros(n), np.zeros(n, dtype=bool)
-        self._tau_values = [0.0] * n
-        self._sat_any = False
-        self._has_prev = False      # self._tau holds a torque sent (bumpless transfer starts from it)
+        self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
+        self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
         self._t = None
-        self.active = False
-        self._reinit = self._restart = False
+        self.active = self._reinit = self._restart = False
         self.ticks = self.saturated_ticks = self.fallbacks = self.restarts = 0
         self.saturation_counts = np.zeros(n, dtype=np.int64)
         self.last_fallback = ''
-        self._guard = self._make_guard(config)
+        self._guard = contact_guard(config)
         self.goal = GoalMonitor(config.joints)
 
     # -- configuration -----------------------------------------------------------------------------
@@ -88,26 +110,17 @@ class ControllerCore:
         config, old = _config(config), self._cfg
         if config.joints != old.joints:
             raise ArgumentError('joints', f'cannot change at run time ({list(old.joints)} -> {list(config.joints)})')
-        old_law, new_law = old.control_law, config.control_law
-        keeps = old_law.tracks == new_law.tracks == 'joint' or config.law == old.law
+        keeps = old.control_law.tracks == config.control_law.tracks == 'joint' or config.law == old.law
         if config.integral_dim != old.integral_dim or config.integral_limit != old.integral_limit:
             self._integral = self._integral.resized(config.integral_dim, config.integral_limit)
         if config.force_axes != old.force_axes:
             self._refs.set_force_axes(len(config.force_axes))
         self._refs.move_time, self._refs.force_ramp_time = config.move_time, config.force_ramp_time
-        self._guard = self._make_guard(config)
+        self._guard = contact_guard(config)
         self._cfg = config
         if self.active:
             self._reinit = self._reinit or config.law_key() != old.law_key()
             self._restart = self._restart or not keeps or config.force_axes != old.force_axes
-
-    @staticmethod
-    def _make_guard(cfg):
-        law = cfg.control_law
-        if not (law.uses_force and cfg.force_axes) or not (np.isfinite(cfg.contact_max_travel)
-                                                            or np.isfinite(cfg.contact_max_speed)):
-            return None
-        return ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel, cfg.contact_max_speed)
 
     # -- references --------------------------------------------------------------------------------
     @property
@@ -196,7 +209,7 @@ class ControllerCore:
         tick.t, tick.q, tick.qd = t, q, qd
         tick.f = tick.fdot = None
         if law.needs_task_space:
-            self._measure_task(tick, f_meas)
+            measure_task(self._cfg, tick, f_meas)
         dt = self._advance(t, tick)
         self._sample_references(t, tick)
         if law.tracks == 'joint' and self.goal.active:
@@ -205,22 +218,6 @@ class ControllerCore:
         int_E = self._integrate(tick, dt)
         tau, int_E = self._evaluate(tick, int_E)
         return self._saturate(tick, tau, int_E, dt)
-
-    def _measure_task(self, tick, f_meas):
-        """tick.x, xd, J, Jdot_qd; and on the force axes tick.f, fdot (N, N/s) when the law uses force."""
-        cfg = self._cfg
-        tick.x, tick.J, tick.Jdot_qd = cfg.model._task(tick.q, tick.qd)
-        tick.xd = tick.J @ tick.qd
-        if not (cfg.control_law.uses_force and cfg.force_axes):
-            return
-        mask = cfg.force_mask
-        x_n, xd_n = tick.x[mask], tick.xd[mask]
-        f, fdot = _spring_force(x_n, xd_n, cfg.x_e, cfg.k_e, 0.0)      # the lecture's f and fdot = k_e xd
-        if cfg.force_feedback == 'sensor':
-            if f_meas is None:
-                raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
-            f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
-        tick.f, tick.fdot = f + cfg.force_lead_time * fdot, fdot
 
     def _advance(self, t, tick):
         """dt since the last tick (0 at a start); starts or restarts the references when needed."""
