@@ -73,8 +73,8 @@ def test_two_namespaced_robots_from_one_config_follow_their_own_trajectories(tmp
         assert rh.spin_until(ex, running, 90.0), [p.output() for p in procs]
         started = {ns: last[ns][0] for ns in goals}
         assert rh.spin_until(ex, lambda: all(last[ns][0] > started[ns] + 0.05 * rh.NS for ns in goals), 30.0)
-        for ns, goal in goals.items():
-            pubs[ns].publish(conversions.joint_trajectory(POLAR, [0.5], [goal]))
+        for (ns, goal), order in zip(goals.items(), ([0, 1], [1, 0])):     # /r2 names the joints (r, theta1)
+            pubs[ns].publish(conversions.joint_trajectory([POLAR[i] for i in order], [0.5], [goal[order]]))
         sent = {ns: last[ns][0] for ns in goals}
         done = lambda: all(last[ns][0] > sent[ns] + 1.5 * rh.NS for ns in goals)   # noqa: E731
         assert rh.spin_until(ex, done, 60.0), {ns: last[ns][0] / rh.NS for ns in goals}
