@@ -176,6 +176,33 @@ def bench_laws(plan):
     return out
 
 
+def bench_transport(plan):
+    """B1 transport: a 7-joint sensor_msgs/JointState (positions, velocities, efforts; a new stamp and new
+    values each) from its CDR bytes, by the package's decoder (robot_control.ros.cdr) and by rclpy's
+    deserialize_message, interleaved round by round; the first round is a warm-up."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import JointState
+
+    from robot_control.ros import cdr, conversions
+
+    rng = np.random.default_rng(SEED)
+    names = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
+    msgs = [serialize_message(conversions.joint_state(names, stamp_ns=1_000_000 * (k + 1), position=rng.normal(size=7),
+                                                      velocity=rng.normal(size=7), effort=rng.normal(size=7)))
+            for k in range(plan.law_calls)]
+    decoder = cdr.JointStateDecoder()
+    cases = {'cdr': (decoder.decode, [(m,) for m in msgs]),
+             'rclpy': (deserialize_message, [(m, JointState) for m in msgs])}
+    times = {name: [] for name in cases}
+    for r in range(plan.law_rounds + 1):
+        for name, (fn, inputs) in cases.items():
+            time_calls(fn, inputs, times[name] if r else [])
+    out = {}
+    for name, ns in times.items():
+        out[f'js7_decode_us_{name}_median'], out[f'js7_decode_us_{name}_p99'] = median_p99_us(ns)
+    return out
+
+
 # -- B4: the world without ROS -------------------------------------------------------------------
 def bench_world(plan):
     """B4: iiwa World physics steps per second (set_torque, step, state per step)."""
@@ -290,6 +317,7 @@ def run(parts, plan, domain_id, log, outdir):
     if 'b1' in parts:
         log('B1 control-law cost ...')
         results.update(bench_laws(plan))
+        results.update(bench_transport(plan))
     if 'b4' in parts:
         log('B4 world without ROS ...')
         results.update(bench_world(plan))
