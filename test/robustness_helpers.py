@@ -1,4 +1,4 @@
-"""Helpers of test_robustness.py (issue 7): node processes, a monitoring node, fault generators.
+"""Helpers of test_robustness.py: node processes, a monitoring node, fault generators.
 
 - NodeProcess: `python -m <module> --ros-args ...` as a child process on a private ROS domain,
   loopback discovery, output to a log file; stop() = SIGINT, then SIGKILL after a deadline;

@@ -8,6 +8,7 @@ run by .venv's python): no ament_package or sourced /opt/ros is needed. Everythi
 import configparser
 import glob
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -99,6 +100,20 @@ def test_package_is_registered_in_the_ament_index(installed):
     prefix, _ = installed
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PKG).is_file()
     assert text(prefix / 'share' / PKG / 'package.xml') == text(os.path.join(ROOT, 'package.xml'))
+
+
+def test_license_and_changelog_are_installed_and_match_package_xml(installed):
+    """A released package carries the license package.xml declares (Apache-2.0) and its changelog."""
+    prefix, _ = installed
+    share = prefix / 'share' / PKG
+    license_text = text(os.path.join(ROOT, 'LICENSE'))
+    assert '<license>Apache-2.0</license>' in text(os.path.join(ROOT, 'package.xml'))
+    assert 'Apache License' in license_text and 'Version 2.0, January 2004' in license_text
+    assert 'END OF TERMS AND CONDITIONS' in license_text
+    assert text(share / 'LICENSE') == license_text
+    changelog = text(share / 'CHANGELOG.rst')
+    version = re.search(r'<version>([^<]+)</version>', text(os.path.join(ROOT, 'package.xml'))).group(1)
+    assert changelog.startswith('^^^') and f'\n{version} (' in changelog   # catkin_generate_changelog's form
 
 
 def test_config_and_urdf_files_are_installed(installed):

@@ -227,8 +227,14 @@ def test_ros_env_keeps_dds_on_this_machine():
     assert 'ROS_STATIC_PEERS' not in env and env['PATH'] == '/bin'
     with pytest.raises(ValueError, match='^domain_id'):
         demo_procs.ros_env(300)
-    lo, hi = demo_procs.DEMO_DOMAIN_RANGE
-    assert all(lo <= demo_procs.pick_domain_id(pid) <= hi for pid in (1, 12345, 99999))
+
+
+def test_private_domains_are_claimed_from_the_top_of_ros_safe_range(tmp_path):
+    """Demo and bench runs take 101, 100, ... (ROS's Linux-safe 0..101, clear of the tests' 1..92)."""
+    ids = demo_procs.PRIVATE_DOMAIN_IDS
+    assert max(ids) == 101 and min(ids) >= 1 and list(ids) == sorted(ids, reverse=True)
+    with demo_procs.private_domain(directory=tmp_path) as a, demo_procs.private_domain(directory=tmp_path) as b:
+        assert (a.domain_id, b.domain_id) == (101, 100)
 
 
 def test_domain_claims_are_exclusive(tmp_path):
