@@ -250,3 +250,30 @@ def tracking_figure(data, path=None):
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=DPI)
     return fig
+
+
+def main(args=None):
+    """`python -m robot_control.plot BAG [-o PNG] [--namespace NS]` / the `plot` console script: the
+    tracking figure of a rosbag2 directory (robot_control.tools.bag_tracking). Exit 0 and the PNG's
+    path on stdout; exit 2 and the reason on stderr for a path that is no bag or a bag without a
+    plottable joint_states."""
+    import argparse
+    import sys
+    from robot_control.tools.bag_tracking import BagError, bag_directory, tracking_data
+    p = argparse.ArgumentParser(prog='python -m robot_control.plot',
+                                description='Draw the tracking figure (position, error, effort, force) from a '
+                                            'rosbag2 directory written by ros2 bag record or robot_control.record.')
+    p.add_argument('bag', help='rosbag2 directory (holding metadata.yaml)')
+    p.add_argument('-o', '--output', default=None, help='PNG to write (default: <bag>_tracking.png beside the bag)')
+    p.add_argument('-n', '--namespace', default=None, help='the robot\'s namespace, for a bag of several')
+    opts = p.parse_args(args)
+    try:
+        bag = bag_directory(opts.bag).resolve()
+        data = tracking_data(bag, opts.namespace)
+    except BagError as exc:
+        print(f'plot: {exc}', file=sys.stderr)
+        return 2
+    out = Path(opts.output) if opts.output else bag.parent / f'{bag.name}_tracking.png'
+    tracking_figure(data, out)
+    print(out)
+    return 0

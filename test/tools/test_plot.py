@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
+from figure_helpers import axes_by_row, check_no_offset
 from robot_control.tools.plot import DPI, tracking_figure
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -30,15 +31,6 @@ def polar_data(force=True, N=601):
         f = 10.0 * (1.0 - np.exp(-8.0 * t))
         data.update(f=f[:, None], f_d=np.full((N, 1), 10.0), force_names=['x'])
     return data
-
-
-def axes_by_row(fig):
-    """Visible axes grouped by row (top to bottom), each row left to right."""
-    rows = {}
-    for ax in fig.axes:
-        spec = ax.get_subplotspec()
-        rows.setdefault(spec.rowspan.start, []).append((spec.colspan.start, ax))
-    return [[ax for _, ax in sorted(rows[r], key=lambda x: x[0])] for r in sorted(rows)]
 
 
 def test_png_written_with_sane_size(tmp_path):
@@ -131,7 +123,7 @@ def iiwa_data(N=400):
 
 def test_seven_joints_in_rows_of_four_without_offset_labels(tmp_path):
     fig = tracking_figure(iiwa_data(), tmp_path / 'tracking.png')
-    fig.canvas.draw()
+    check_no_offset(fig)
     rows = axes_by_row(fig)
     assert [len(r) for r in rows] == [4, 3, 4, 3, 4, 3]  # position, error, effort: 4 + 3 each
     names = iiwa_data()['joint_names']
@@ -142,12 +134,7 @@ def test_seven_joints_in_rows_of_four_without_offset_labels(tmp_path):
         assert {a.get_ylabel() for a in panels} == {label}
     w, h = fig.get_size_inches()
     assert w < 16 and h < 16  # four columns, not seven
-    for ax in fig.axes:
-        for axis in (ax.xaxis, ax.yaxis):
-            fmt = axis.get_major_formatter()
-            assert fmt.get_useOffset() is False
-            assert fmt.offset == 0 and '+' not in fmt.get_offset()
-        assert all(tick.get_text() for tick in ax.get_yticklabels())
+    assert all(tick.get_text() for ax in fig.axes for tick in ax.get_yticklabels())
     # joint 7 held at 0.55 rad: a flat line at its value, ticks printed as themselves
     q7 = rows[1][2]
     assert q7.get_title() == 'lbr_iiwa_joint_7'
