@@ -29,6 +29,7 @@ setup(
             'controller_node = robot_control.ros.controller_node:main',
             'sim_bridge_node = sim_bridge.bridge_node:main',
             'record = robot_control.tools.record:main',
+            'plot = robot_control.tools.plot:main',
         ],
     },
 )

@@ -20,6 +20,7 @@ VENV_BIN = os.path.dirname(os.path.abspath(sys.executable))
 PKG = 'robot_control'
 NODES = {'controller_node': 'robot_control.ros.controller_node:main',
          'sim_bridge_node': 'sim_bridge.bridge_node:main'}
+TOOLS = {'record': 'robot_control.tools.record:main', 'plot': 'robot_control.tools.plot:main'}
 ARTIFACTS = ('build', 'install', 'log')
 
 
@@ -88,12 +89,13 @@ def test_build_writes_nothing_into_the_repo(installed):
 
 def test_nodes_are_installed_where_ros2_run_looks(installed):
     prefix, _ = installed
-    for node, target in NODES.items():
+    scripts = {**NODES, **TOOLS}  # ros2 run robot_control record / plot, too
+    for node, target in scripts.items():
         path = prefix / 'lib' / PKG / node
         assert path.is_file() and os.access(path, os.X_OK), path
         with open(path, encoding='utf-8') as f:
             assert f.readline().startswith('#!'), f'{path} has no shebang'
-    assert {k: v for k, v in entry_points(prefix).items() if k in NODES} == NODES
+    assert {k: v for k, v in entry_points(prefix).items() if k in scripts} == scripts
 
 
 def test_package_is_registered_in_the_ament_index(installed):

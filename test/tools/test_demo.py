@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from e2e_helpers import E2E_DOMAINS
-from robot_control.tools import demo, demo_experiments, demo_metrics, demo_procs, readme_results
+from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, demo_procs, readme_results
 from robot_control.tools.demo_procs import DomainClaim
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -124,7 +124,13 @@ def test_demo_command_writes_summary_plot_and_bag_and_stops_its_processes(tmp_pa
     assert summary['loop_rate_hz'] > 0 and 0 < summary['latency_p50_ms'] <= summary['latency_p99_ms']
     assert summary['domain_id'] == domain
     assert (out / 'tracking.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
-    assert (out / 'bag' / 'metadata.yaml').is_file()
+    meta = (out / 'bag' / 'metadata.yaml').read_text()
+    assert 'ros_distro: jazzy' in meta and 'storage_identifier: mcap' in meta
+    # the recorder's bag plots as the run did: the joint, its reference and error, the applied torque
+    plot = bag_tracking.tracking_data(out / 'bag')
+    assert plot['scenario'] == 'single_link' and plot['joint_names'] == ['theta'] and plot['units'] == ['rad']
+    assert plot['t'].size >= summary['samples'] and np.isfinite(plot['q_d']).sum() >= summary['samples']
+    assert np.nanmax(np.abs(plot['e'][:, 0])) == pytest.approx(summary['max_error']['theta'], rel=1e-9)
     assert (out / 'logs' / 'sim_bridge.log').is_file() and (out / 'logs' / 'controller.log').is_file()
 
 
