@@ -46,7 +46,7 @@ import time
 import numpy as np
 
 from robot_control import units
-from robot_control.ros.throttle import Throttle
+from robot_control.core.throttle import Throttle
 from robot_control.validation import ArgumentError
 from sim_bridge.loop import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard)

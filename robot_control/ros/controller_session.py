@@ -32,7 +32,7 @@ from robot_control.core.watchdog import StateWatchdog
 from robot_control.ros import cdr, conversions
 from robot_control.ros.reference_inputs import ReferenceInputs
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
-from robot_control.ros.throttle import Throttle
+from robot_control.core.throttle import Throttle
 
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
@@ -243,7 +243,7 @@ class ControllerSession:
 
     def reject(self, source, reason):
         self.counters.reject(source, reason)
-        if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.ros.throttle
+        if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.core.throttle
             self.log.warning(f'rejected {self.counters.last_rejection}')
 
     # -- watchdog and diagnostics ------------------------------------------------------------------

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from robot_control.models import make_model
-from robot_control.ros.throttle import Throttle
+from robot_control.core.throttle import Throttle
 from sim_bridge import parameters as bridge_params
 from sim_bridge.bridge_loop import LockstepLoop, RealtimeLoop, make_loop
 from sim_bridge.loop import (REJECT_REASONS, CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
