@@ -29,7 +29,7 @@ class Scenario:
     params: dict                  # the model's physical parameters, SI
     joints: tuple                 # joint names, controller and simulator order
     q0: tuple                     # initial joint positions, rad or m
-    urdf: str = ''                # URDF file: shipped (robot_control/urdf) or pybullet_data relative
+    urdf: str = ''                # URDF file: a name robot_control.urdf.resolve knows
     tip: str = ''                 # task frame for URDF robots
     surface: Surface = None
     force_axes: tuple = ()        # task axes that are force controlled (hybrid/force scenarios)
@@ -37,6 +37,10 @@ class Scenario:
 
 
 IIWA_JOINTS = tuple(f'lbr_iiwa_joint_{i}' for i in range(1, 8))
+#: the Panda's arm; its two finger joints are held closed (at 0 m) by the simulator and locked there in the model
+PANDA_JOINTS = tuple(f'panda_joint{i}' for i in range(1, 8))
+UR5_JOINTS = ('shoulder_pan_joint', 'shoulder_lift_joint', 'elbow_joint', 'wrist_1_joint', 'wrist_2_joint',
+              'wrist_3_joint')
 
 SCENARIOS = {s.name: s for s in (
     Scenario('mass_spring_cubic', 'mass_spring_cubic', {'m': 1.0, 'b': 0.5, 'k': 100.0},
@@ -60,6 +64,12 @@ SCENARIOS = {s.name: s for s in (
     Scenario('iiwa', 'urdf', {}, IIWA_JOINTS, (0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0),
              urdf='kuka_iiwa/model.urdf', tip='lbr_iiwa_link_7',
              surface=Surface(axis=2, x_e=0.25, k_e=20000.0, sign=-1.0), force_axes=(2,)),
+    # tip: the point between the fingertips (8.3 mm above them); only the tip touches the table
+    Scenario('panda', 'urdf', {}, PANDA_JOINTS, (0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785),
+             urdf='franka_panda/panda.urdf', tip='panda_grasptarget',
+             surface=Surface(axis=2, x_e=0.1, k_e=20000.0, sign=-1.0), force_axes=(2,)),
+    Scenario('ur5', 'urdf', {}, UR5_JOINTS, (0.0, -1.2, 1.5, -1.9, -1.571, 0.0),
+             urdf='ur_description/urdf/ur5_robot.urdf', tip='tool0'),
 )}
 
 

@@ -35,6 +35,8 @@ JOINT_UNITS = {
     'hybrid_cartesian_xy': ('m', 'm'),
     'hybrid_cartesian_xyz': ('m', 'm', 'm'),
     'iiwa': ('rad',) * 7,
+    'panda': ('rad',) * 7,
+    'ur5': ('rad',) * 6,
 }
 
 CONTROL_PERIOD = 0.001   # s, the configs' control_period: a step reaches its goal in one period
@@ -127,22 +129,51 @@ def raised_cosine(q_start, amplitude, freq):
     return fn
 
 
-# -- iiwa: joint positions for Cartesian targets ---------------------------------------------------
-IIWA_POSTURE = (0.0, 0.7, 0.0, -1.6, 0.0, 0.68, 0.0)   # rad, tool (link 7) pointing straight down
-IIWA_TABLE = (0.55, -0.05)                              # m, start of the line drawn on the table (x, y)
-IIWA_LINE = 0.10                                        # m, length of the line along +y
+# -- URDF arms: joint positions for Cartesian targets on the table ------------------------------------
+@dataclass(frozen=True)
+class TableLine:
+    """A line an arm draws on its scenario's table: `length` m along +y from (x, y) = `start` at the table
+    top (the scenario surface's x_e, m), the redundancy resolved toward `posture` (rad)."""
+
+    scenario: str
+    posture: tuple
+    start: tuple
+    length: float
+
+    @property
+    def z(self):
+        return scenarios.get(self.scenario).surface.x_e
+
+    def model(self):
+        from robot_control import models
+        return models.for_scenario(scenarios.get(self.scenario))
+
+    def start_positions(self, model=None):
+        """Joint positions with the tip at the start of the line."""
+        model = model or self.model()
+        return tuple(float(v) for v in arm_ik(model, (*self.start, self.z), self.posture))
+
+    def trajectory(self, t_start, T, dt=0.05, model=None):
+        """A JointTrajectory drawing the line in T s (quintic timing), every point an IK solution."""
+        model = model or self.model()
+        x0, y0 = self.start
+        k = int(round(T / dt))
+        taus = np.array([dt * (i + 1) for i in range(k)])
+        s = taus / T
+        y = y0 + self.length * (10 * s**3 - 15 * s**4 + 6 * s**5)
+        q = arm_ik(model, (x0, y0, self.z), self.posture)
+        pos = []
+        for yi in y:
+            q = arm_ik(model, (x0, yi, self.z), q, self.posture)
+            pos.append(q.copy())
+        return TrajectorySpec(t_start, tuple(float(t) for t in taus), tuple(tuple(map(float, p)) for p in pos))
 
 
-def iiwa_model():
-    from robot_control import models
-    return models.for_scenario(scenarios.get('iiwa'))
-
-
-def iiwa_ik(model, p, q_init, q_posture=IIWA_POSTURE, tol=1e-12, iters=200):
-    """Joint positions (7,) putting the tip at p (3,), m: damped least squares with a null-space pull
-    toward q_posture (the redundancy resolution the hybrid law's posture term also uses)."""
+def arm_ik(model, p, q_init, q_posture=None, tol=1e-12, iters=200):
+    """Joint positions (n,) putting the tip at p (3,), m: damped least squares with a null-space pull
+    toward q_posture (default q_init; the redundancy resolution the hybrid law's posture term also uses)."""
     q = np.array(q_init, dtype=float)
-    q_nom = np.asarray(q_posture, dtype=float)
+    q_nom = np.array(q_init if q_posture is None else q_posture, dtype=float)
     p = np.asarray(p, dtype=float)
     eye = np.eye(model.n)
     for _ in range(iters):
@@ -157,27 +188,10 @@ def iiwa_ik(model, p, q_init, q_posture=IIWA_POSTURE, tol=1e-12, iters=200):
     return q
 
 
-def iiwa_line(t_start, T, z, dt=0.05, model=None):
-    """A JointTrajectory drawing IIWA_LINE along +y at height z from IIWA_TABLE in T s (quintic timing),
-    every point an IK solution (positions, velocities J+ xd, accelerations by differentiation)."""
-    model = model or iiwa_model()
-    x0, y0 = IIWA_TABLE
-    k = int(round(T / dt))
-    taus = np.array([dt * (i + 1) for i in range(k)])
-    s = taus / T
-    y = y0 + IIWA_LINE * (10 * s**3 - 15 * s**4 + 6 * s**5)
-    q = iiwa_ik(model, (x0, y0, z), IIWA_POSTURE)
-    pos = []
-    for yi in y:
-        q = iiwa_ik(model, (x0, yi, z), q)
-        pos.append(q.copy())
-    return TrajectorySpec(t_start, tuple(float(t) for t in taus), tuple(tuple(map(float, p)) for p in pos))
-
-
-def iiwa_start(z):
-    """Joint positions with the tip at the start of the line, height z (m)."""
-    model = iiwa_model()
-    return tuple(float(v) for v in iiwa_ik(model, (*IIWA_TABLE, z), IIWA_POSTURE))
+#: the iiwa: tool (link 7) pointing straight down, a 10 cm line from (0.55, -0.05) m
+IIWA_LINE = TableLine('iiwa', (0.0, 0.7, 0.0, -1.6, 0.0, 0.68, 0.0), (0.55, -0.05), 0.10)
+#: the Panda: hand pointing straight down, a 10 cm line from (0.5, -0.05) m
+PANDA_LINE = TableLine('panda', (0.0, 0.35, 0.0, -2.45, 0.0, 2.8, 0.785), (0.5, -0.05), 0.10)
 
 
 # -- the experiments -------------------------------------------------------------------------------
@@ -284,26 +298,26 @@ def _hybrid_xyz():
         trajectory=sampled(fn, 0.5, 5.0), settle_from=None, force_window=2.0)
 
 
-IIWA_Z = 0.25     # m, the table top (scenario surface x_e)
-
-
-def _iiwa_ptp():
-    q0 = np.array(IIWA_POSTURE)
-    goal = q0 + np.array([0.6, -0.3, 0.4, 0.3, -0.5, 0.4, 0.8])
+def _ptp(name, scenario, title, q_start, offset, bridge=None):
+    """Joint-space PD computed torque from rest at q_start to q_start + offset (rad): a quintic in 2 s from 0.2 s."""
+    goal = np.asarray(q_start, dtype=float) + np.asarray(offset, dtype=float)
     traj = TrajectorySpec(0.2, (2.0,), (tuple(map(float, goal)),))
-    return Experiment(
-        'iiwa_ptp', 'iiwa', 'KUKA iiwa, joint-space PD computed torque (Pinocchio model): quintic point-to-point in 2 s',
-        duration=3.0, bridge={'initial_positions': list(IIWA_POSTURE), 'surface.enable': False},
-        trajectory=traj, settle_from=0.2)
+    return Experiment(name, scenario, f'{title}, joint-space PD computed torque (Pinocchio model): quintic '
+                                      'point-to-point in 2 s', duration=3.0,
+                      bridge={'initial_positions': [float(v) for v in q_start], **(bridge or {})},
+                      trajectory=traj, settle_from=0.2)
 
 
-def _iiwa_hybrid_line():
+def _hybrid_line(name, line, title):
+    """Operational-space hybrid control: 10 N down on the table from rest at the line's start, drawing it in 2 s
+    from 1.0 s."""
+    model = line.model()
     return Experiment(
-        'iiwa_hybrid_line', 'iiwa',
-        'KUKA iiwa, operational-space hybrid control: 10 N down on the table, drawing a 10 cm line in 2 s',
+        name, line.scenario, f'{title}, operational-space hybrid control: 10 N down on the table, drawing a '
+                             f'{line.length * 100:g} cm line in 2 s',
         duration=3.5, law='hybrid', controller={'law': 'hybrid'},
-        bridge={'initial_positions': list(iiwa_start(IIWA_Z))}, force=(-10.0,),
-        trajectory=None, settle_from=None, force_window=1.2, notes='trajectory built lazily (IK)')
+        bridge={'initial_positions': list(line.start_positions(model))}, force=(-10.0,),
+        trajectory=line.trajectory(1.0, 2.0, model=model), settle_from=None, force_window=1.2)
 
 
 _BUILDERS = {
@@ -320,8 +334,14 @@ _BUILDERS = {
     'force_steps': _force_steps,
     'hybrid_xy_wall': _hybrid_xy,
     'hybrid_xyz_circle': _hybrid_xyz,
-    'iiwa_ptp': _iiwa_ptp,
-    'iiwa_hybrid_line': _iiwa_hybrid_line,
+    'iiwa_ptp': lambda: _ptp('iiwa_ptp', 'iiwa', 'KUKA iiwa', IIWA_LINE.posture, (0.6, -0.3, 0.4, 0.3, -0.5, 0.4, 0.8),
+                             bridge={'surface.enable': False}),
+    'iiwa_hybrid_line': lambda: _hybrid_line('iiwa_hybrid_line', IIWA_LINE, 'KUKA iiwa'),
+    'panda_ptp': lambda: _ptp('panda_ptp', 'panda', 'Franka Panda (fingers held)', scenarios.get('panda').q0,
+                              (0.6, 0.4, -0.4, 0.5, 0.5, -0.4, 0.8), bridge={'surface.enable': False}),
+    'panda_hybrid_line': lambda: _hybrid_line('panda_hybrid_line', PANDA_LINE, 'Franka Panda (fingers held)'),
+    'ur5_ptp': lambda: _ptp('ur5_ptp', 'ur5', 'UR5 (6 DOF, example-robot-data)', scenarios.get('ur5').q0,
+                            (0.8, 0.5, -0.6, 0.5, 0.6, 1.0)),
 }
 
 #: the experiment `--scenario NAME` runs
@@ -334,6 +354,8 @@ DEFAULT_FOR_SCENARIO = {
     'hybrid_cartesian_xy': 'hybrid_xy_wall',
     'hybrid_cartesian_xyz': 'hybrid_xyz_circle',
     'iiwa': 'iiwa_hybrid_line',
+    'panda': 'panda_hybrid_line',
+    'ur5': 'ur5_ptp',
 }
 
 EXPERIMENTS = tuple(_BUILDERS)
@@ -353,11 +375,8 @@ def get(name):
     """The Experiment called `name` (an experiment or a scenario name), or ValueError listing them."""
     key = DEFAULT_FOR_SCENARIO.get(name, name)
     try:
-        exp = _BUILDERS[key]()
+        build = _BUILDERS[key]
     except KeyError:
         raise ValueError(f'experiment: unknown {name!r}; expected a scenario {sorted(DEFAULT_FOR_SCENARIO)} '
                          f'or an experiment {list(EXPERIMENTS)}') from None
-    if key == 'iiwa_hybrid_line':
-        import dataclasses
-        exp = dataclasses.replace(exp, trajectory=iiwa_line(1.0, 2.0, IIWA_Z))
-    return exp
+    return build()

@@ -1,23 +1,45 @@
 """The shipped URDFs (this directory) and the one lookup of a URDF by name.
 
 A URDF is named by an existing file path, a shipped file ('polar_two_link' or
-'polar_two_link.urdf'), or a path relative to pybullet_data ('kuka_iiwa/model.urdf').
+'polar_two_link.urdf'), a path relative to pybullet_data ('kuka_iiwa/model.urdf'), or a path relative
+to the robots of example-robot-data, the wheel's or a ROS install's ('ur_description/urdf/ur5_robot.urdf').
 """
 import os
+import sys
 from robot_control.validation import ArgumentError
 
 #: directory of the shipped URDFs
 DIR = os.path.dirname(os.path.abspath(__file__))
 
 
+#: where example-robot-data keeps its robots below an install prefix
+EXAMPLE_ROBOT_DATA = os.path.join('share', 'example-robot-data', 'robots')
+
+
+def _prefixes():
+    """Install prefixes that may hold example-robot-data: the wheel's (cmeel.prefix in a sys.path
+    directory), then a ROS install's (each AMENT_PREFIX_PATH entry)."""
+    for entry in sys.path:
+        yield os.path.join(entry or os.curdir, 'cmeel.prefix')
+    for entry in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if entry:
+            yield entry
+
+
 def search_dirs():
-    """Where names are looked up: the shipped URDFs, then pybullet_data (if installed)."""
+    """Where names are looked up: the shipped URDFs, then pybullet_data and example-robot-data's robots
+    (each if installed; the first example-robot-data found)."""
     dirs = [DIR]
     try:
         import pybullet_data  # data-only package: does not import pybullet
         dirs.append(pybullet_data.getDataPath())
     except ImportError:
         pass
+    for prefix in _prefixes():
+        robots = os.path.join(prefix, EXAMPLE_ROBOT_DATA)
+        if os.path.isdir(robots):
+            dirs.append(os.path.abspath(robots))
+            break
     return dirs
 
 
@@ -52,15 +74,43 @@ def read(urdf):
         return f.read(), path
 
 
+#: URI schemes PyBullet drops from a mesh file name before it looks for the file
+MESH_SCHEMES = ('file://', 'package://', 'model://')
+
+
+def mesh_path(name, base):
+    """The absolute file a URDF in directory `base` means by mesh file name `name`, found as PyBullet
+    finds it: a 'file://', 'package://' or 'model://' prefix dropped, then `base`/name, `base`/../name,
+    ... up to the root directory, the first that exists. An absolute name is returned as it is; None for
+    other URIs and for a name found nowhere."""
+    for scheme in MESH_SCHEMES:
+        if name.startswith(scheme):
+            name = name[len(scheme):]
+            break
+    if not name or '://' in name:
+        return None
+    if os.path.isabs(name):
+        return name
+    directory = os.path.abspath(base)
+    while True:
+        path = os.path.join(directory, name)
+        if os.path.isfile(path):
+            return os.path.normpath(path)
+        parent = os.path.dirname(directory)
+        if parent == directory:
+            return None
+        directory = parent
+
+
 def with_absolute_meshes(xml, base):
-    """URDF text `xml` whose relative mesh file names are made absolute against directory `base` (the
-    original file's), so the text can be written and loaded anywhere."""
+    """URDF text `xml` whose mesh file names are made absolute against directory `base` (the original
+    file's) as PyBullet resolves them (mesh_path), so the text can be written and loaded anywhere."""
     import xml.etree.ElementTree as ET
     root = ET.fromstring(xml.lstrip())
     for mesh in root.iter('mesh'):
-        name = mesh.get('filename', '')
-        if name and '://' not in name and not os.path.isabs(name):
-            mesh.set('filename', os.path.join(base, name))
+        path = mesh_path(mesh.get('filename', ''), base)
+        if path is not None:
+            mesh.set('filename', path)
     return ET.tostring(root, encoding='unicode')
 
 

@@ -11,8 +11,9 @@ Figures checked (the issue's):
 4. model error (robot 20 % heavier than the controller's model): PD leaves an error, PID removes it.
 5. force_1dof: the force step follows the designed dynamics; steady-state force error < 1 %.
 6. hybrid_cartesian_xy: 10 N on the wall, force RMS error < 2 % after settling, y RMS error < 1 mm.
-7. iiwa: joint-space point-to-point ends within 1e-3 rad; hybrid on the table: 10 N with force
-   error < 5 % while drawing a 10 cm line with path error < 2 mm.
+7. URDF arms (the iiwa, the Franka Panda with its fingers held, the 6-DOF UR5 of example-robot-data):
+   joint-space point-to-point ends within 1e-3 rad without saturating; hybrid on the table (iiwa, Panda):
+   10 N with force error < 5 % while drawing a 10 cm line with path error < 2 mm.
 8. mass_spring_cubic tracks a sine with the partitioned law.
 Repeated runs give identical numbers; the recorded bag of one run is checked with rosbags.
 """
@@ -43,6 +44,9 @@ RUNS = {
     'hybrid_xy': ('hybrid_xy_wall', dict(duration=4.0)),
     'iiwa_ptp': ('iiwa_ptp', dict(duration=2.7)),
     'iiwa_line': ('iiwa_hybrid_line', dict(duration=3.5)),
+    'panda_ptp': ('panda_ptp', dict(duration=2.7)),
+    'panda_line': ('panda_hybrid_line', dict(duration=3.5)),
+    'ur5_ptp': ('ur5_ptp', dict(duration=2.7)),
     'sine': ('mass_spring_sine', dict(duration=2.5)),
 }
 
@@ -224,30 +228,36 @@ def test_hybrid_xy_presses_10N_while_y_tracks_the_sine(runs):
     assert y_rms < 1e-3
 
 
-# -- 7. the iiwa ------------------------------------------------------------------------------------------
-def test_iiwa_point_to_point_ends_within_1e_3_rad(runs):
-    result = runs.get('iiwa_ptp')
+# -- 7. URDF arms ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize('key', ['iiwa_ptp', 'panda_ptp', 'ur5_ptp'])
+def test_arm_point_to_point_ends_within_1e_3_rad(runs, key):
+    result = runs.get(key)
     d = result.data
     _complete(result)
-    goal = np.array(exps.get('iiwa_ptp').trajectory.positions[0])
+    name = RUNS[key][0]
+    goal = np.array(exps.get(name).trajectory.positions[0])
     final = np.abs(d.q[-1] - goal)
-    print(f'iiwa point to point: final |q - q_goal| = {final.max():.3g} rad (max over joints), '
-          f'RMS tracking error {max(result.summary["rms_error"].values()):.3g} rad')
+    print(f'{name}: final |q - q_goal| = {final.max():.3g} rad (max over joints), RMS tracking error '
+          f'{max(result.summary["rms_error"].values()):.3g} rad, max {max(result.summary["max_error"].values()):.3g} rad, '
+          f'max |tau| {np.abs(d.tau_cmd).max():.3g} N m')
     assert np.all(d.ref_pos[-1] == goal)
     assert np.all(final < 1e-3)
+    assert result.summary['saturated_ticks'] == 0
 
 
-def test_iiwa_hybrid_presses_10N_while_drawing_a_line(runs):
-    result = runs.get('iiwa_line')
+@pytest.mark.parametrize('key', ['iiwa_line', 'panda_line'])
+def test_arm_hybrid_presses_10N_while_drawing_a_line(runs, key):
+    result = runs.get(key)
     d, s = result.data, result.summary
     _complete(result)
-    exp = exps.get('iiwa_hybrid_line')
+    exp = exps.get(RUNS[key][0])
     f_d = abs(exp.force[0])
     win = d.window(exp.force_window)
     ef = (d.force_reference() - d.force_measured())[win, 0]
     path = np.linalg.norm(d.motion_error(), axis=1)
-    print(f'iiwa hybrid: force error after {exp.force_window} s: max {np.nanmax(np.abs(ef)):.3g} N, RMS '
-          f'{s["force_rms_error"]["z"]:.3g} N (f_d {f_d} N); path error max {path.max():.3g} m')
+    print(f'{exp.name}: force error after {exp.force_window} s: max {np.nanmax(np.abs(ef)):.3g} N, RMS '
+          f'{s["force_rms_error"]["z"]:.3g} N (f_d {f_d} N); path error max {path.max():.3g} m, RMS '
+          f'{np.sqrt(np.mean(path ** 2)):.3g} m')
     assert np.nanmax(np.abs(ef)) < 0.05 * f_d
     assert path.max() < 2e-3
 

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from e2e_helpers import E2E_DOMAINS
+from robot_control import scenarios
 from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, demo_procs, readme_results
 from robot_control.tools.demo_procs import DomainClaim
 
@@ -291,15 +292,20 @@ def test_every_scenario_has_an_experiment_with_valid_references():
         demo_experiments.get('nope')
 
 
-def test_iiwa_references_keep_the_tip_on_the_table():
-    model = demo_experiments.iiwa_model()
-    exp = demo_experiments.get('iiwa_hybrid_line')
+@pytest.mark.parametrize('name,line', [('iiwa_hybrid_line', demo_experiments.IIWA_LINE),
+                                       ('panda_hybrid_line', demo_experiments.PANDA_LINE)])
+def test_hybrid_line_references_keep_the_tip_on_the_table(name, line):
+    model = line.model()
+    exp = demo_experiments.get(name)
+    assert exp.scenario == line.scenario and line.z == scenarios.get(line.scenario).surface.x_e
     start = np.array(exp.bridge['initial_positions'])
-    assert np.allclose(model.fk(start), [*demo_experiments.IIWA_TABLE, demo_experiments.IIWA_Z], atol=1e-9)
+    assert np.allclose(model.fk(start), [*line.start, line.z], atol=1e-9)
     tips = np.array([model.fk(np.array(q)) for q in exp.trajectory.positions])
-    assert np.allclose(tips[:, 2], demo_experiments.IIWA_Z, atol=1e-9)
-    assert np.allclose(tips[:, 0], demo_experiments.IIWA_TABLE[0], atol=1e-9)
-    assert tips[-1, 1] - demo_experiments.IIWA_TABLE[1] == pytest.approx(demo_experiments.IIWA_LINE, abs=1e-9)
+    assert np.allclose(tips[:, 2], line.z, atol=1e-9)
+    assert np.allclose(tips[:, 0], line.start[0], atol=1e-9)
+    assert tips[-1, 1] - line.start[1] == pytest.approx(line.length, abs=1e-9)
+    lower, upper = model.position_limits
+    assert np.all((np.array(exp.trajectory.positions) > lower) & (np.array(exp.trajectory.positions) < upper))
 
 
 def test_settling_time_of_the_critically_damped_step():
