@@ -16,14 +16,14 @@ import pytest
 
 import robustness_helpers as rh
 from e2e_helpers import E2E_DOMAINS, Lockstep
-from robot_control.tools.demo_experiments import IIWA_POSTURE
+from robot_control.tools.demo_experiments import IIWA_LINE
 from robot_control.tools.demo_procs import DomainClaim
 
 IIWA = ('lbr_iiwa_joint_1', 'lbr_iiwa_joint_2', 'lbr_iiwa_joint_3', 'lbr_iiwa_joint_4', 'lbr_iiwa_joint_5',
         'lbr_iiwa_joint_6', 'lbr_iiwa_joint_7')
 POLAR = ('theta1', 'r')
 SHUFFLE = (3, 0, 6, 1, 5, 2, 4)                 # the order a planner names the iiwa's joints in
-IIWA_BRIDGE = {'initial_positions': list(IIWA_POSTURE), 'surface.enable': False}
+IIWA_BRIDGE = {'initial_positions': list(IIWA_LINE.posture), 'surface.enable': False}
 OMEGA_N = 6.0                                   # rad/s, config/iiwa.yaml and polar_two_link.yaml: 0.5 omega_res
 
 
@@ -99,7 +99,7 @@ def test_two_namespaced_robots_from_one_config_follow_their_own_trajectories(tmp
 
 
 # -- 2. a MoveIt-style trajectory on the iiwa; its goal reported --------------------------------------------
-MOVE = np.array([0.5, -0.3, 0.4, 0.3, -0.5, 0.4, 0.6])     # rad, from IIWA_POSTURE
+MOVE = np.array([0.5, -0.3, 0.4, 0.3, -0.5, 0.4, 0.6])     # rad, from IIWA_LINE.posture
 MOVE_TIME = 1.0                                            # s
 SETTLE = 0.3                                               # s after the trajectory's end
 GOAL_TOLERANCE = 1e-3                                      # rad, every joint
