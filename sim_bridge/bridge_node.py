@@ -23,7 +23,10 @@ Pacing (parameter `mode`):
 - realtime: a steady-clock timer runs the control ticks that are due at real_time_factor
   (sim_bridge.loop.RealtimePacer; it re-anchors after a stall of more than 0.1 s rather than
   bursting). The latest valid command is held; no valid command for command_timeout of
-  simulation time (or none yet) engages the World's brakes, a fresh command releases them.
+  simulation time (or none yet) engages the World's brakes, a fresh command releases them. A
+  robot_joint_commands stamped (the state it answers) more than command_timeout before the current
+  simulation time arrived too late (a network link that failed and came back): it is ignored and
+  counted (outdated_commands on /diagnostics), never applied.
 
 Bad commands (unknown, missing or duplicate joint names, wrong lengths, NaN or inf) never reach
 PyBullet: a throttled warning, a count per reason on /diagnostics, and the last valid command
@@ -36,7 +39,7 @@ The node never reads a parameter in the loop: it works on a validated snapshot
 
 Diagnostics: three statuses, `sim_bridge: pacing` (mode, sim_time, achieved_real_time_factor,
 overruns, republished_states, late_commands), `sim_bridge: commands` (accepted, rejected and
-rejected_<reason> counts, last_reject_reason, command_age, publishers per topic,
+rejected_<reason> counts, last_reject_reason, command_age, outdated_commands, publishers per topic,
 publisher_conflicts) and `sim_bridge: brakes` (engaged, reason, events); published every
 diagnostics_period and at once when the brakes change.
 
@@ -165,6 +168,7 @@ class SimBridge(Node):
         self._pending = None                              # lockstep: answer stashed while paused
         self._ticks = 0
         self._republished = 0
+        self._outdated_commands = 0                       # realtime: ignored, see _ignore_outdated
         self._wall_last_pub = 0
         self._reject_throttle = Throttle(WARN_PERIOD_NS)
         self._brake_throttle = Throttle(WARN_PERIOD_NS)
@@ -353,7 +357,11 @@ class SimBridge(Node):
                 return
             self._lockstep_answer(self._mapper.map_named(msg.name, msg.effort), ok)
         else:
-            ok = self._guard.check(0, self._world.t_ns, t_cmd)
+            t = self._world.t_ns
+            ok = self._guard.check(0, t, t_cmd)
+            if self._watchdog.outdated(t, t_cmd):
+                self._ignore_outdated(t_cmd, t)
+                return
             reason = self._mapper.map_named(msg.name, msg.effort)
             if reason is None and ok:
                 self._deadline.command(t_cmd, time.monotonic_ns())
@@ -379,6 +387,14 @@ class SimBridge(Node):
             self.get_logger().warning(
                 f'rejected command: {reason}; {self._mapper.rejected_total} rejected so far; '
                 f'{"the last valid command stays" if self._have_cmd else "the brakes stay"} in force')
+
+    def _ignore_outdated(self, t_cmd, t):
+        """Realtime: a command answering a state more than command_timeout old is never applied."""
+        self._outdated_commands += 1
+        if self._reject_throttle.ready(time.monotonic_ns()):
+            self.get_logger().warning(
+                f'ignored a command answering the state of t = {t_cmd / NS:.3f} s at t = {t / NS:.3f} s '
+                f'(older than command_timeout = {self.cfg.command_timeout} s); {self._outdated_commands} so far')
 
     def _lockstep_answer(self, reason, ok):
         if reason is not None:
@@ -566,6 +582,7 @@ class SimBridge(Node):
         age = self._watchdog.age_ns(t)
         cmd_values['command_age'] = 'n/a' if (cfg.lockstep or age is None) else age / NS
         cmd_values['command_timeout'] = cfg.command_timeout
+        cmd_values['outdated_commands'] = self._outdated_commands
         for topic, count in zip(COMMAND_TOPICS, counts):
             cmd_values[f'publishers {topic}'] = count
         cmd_values['publisher_conflicts'] = self._guard.conflicts

@@ -71,6 +71,15 @@ def test_watchdog_stale_in_simulation_time():
     assert w.stale(10 * MS)
 
 
+def test_watchdog_calls_a_command_answering_an_old_state_outdated():
+    w = CommandWatchdog(50 * MS)
+    assert not w.outdated(100 * MS, 50 * MS)            # exactly command_timeout old: still in time
+    assert w.outdated(100 * MS, 50 * MS - 1)
+    assert not w.outdated(100 * MS, 0)                  # unstamped
+    assert not w.outdated(100 * MS, 200 * MS)           # ahead (another time base): not this check's business
+    assert not w.outdated(10 * MS, 1)                   # younger than command_timeout since the start
+
+
 def test_lockstep_gate_matches_only_the_expected_stamp():
     g = LockstepGate()
     g.expect(stamp_ns(1, 500))
