@@ -12,7 +12,7 @@ export PYTHONDONTWRITEBYTECODE := 1
 SCENARIO ?= polar_two_link
 QUICK    ?= 0
 
-.PHONY: venv test demo bench clean
+.PHONY: venv test demo bench check-ros2 clean
 
 venv: $(STAMP)
 
@@ -31,6 +31,10 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m robot_control.tools.bench $(if $(filter 1,$(QUICK)),--quick,)
+
+# Needs a `ros2` command on PATH (a sourced Jazzy install or the stand-in, see README); not part of `make test`.
+check-ros2: $(STAMP)
+	$(PY) -m robot_control.tools.check_ros2
 
 clean:
 	rm -rf $(VENV) out build install log *.egg-info

@@ -1,4 +1,4 @@
-"""The lecture's systems as scenarios (DESIGN §3): model, physical parameters, start, surface.
+"""The lecture's systems as scenarios: model, physical parameters, start, surface.
 
 A scenario is data shared by the simulator (the "real robot") and the controller's default
 configuration. The simulator may be given other physical parameters than the controller (a

@@ -116,3 +116,67 @@ def names(name, value, expected=None):
         missing = sorted(set(expected) - set(got))
         raise ArgumentError(name, f'unknown {unknown}, missing {missing} (expected {list(expected)})')
     return got
+
+
+def vectors(n, **named):
+    """Each named value as a finite float64 (n,) array, in order; ArgumentError names the first bad one.
+
+    Arrays that are already float64 (n,) are checked with one Python sum over all of them."""
+    values = list(named.values())
+    total = 0.0
+    for v in values:
+        if not is_vector(v, n):
+            break
+        total += sum(v.tolist())
+    else:
+        if math.isfinite(total):
+            return values
+    return [vector(name, value, n) for name, value in named.items()]
+
+
+def optional_vector(name, value, n):
+    """None, or vector(name, value, n)."""
+    return None if value is None else vector(name, value, n)
+
+
+def per_entry(name, value, k):
+    """A finite scalar broadcast to (k,), or a finite (k,) array, or ArgumentError naming `name`."""
+    if type(value) is float or type(value) is int:
+        return np.full(k, scalar(name, value))
+    a = vector(name, value)
+    if a.shape[0] == 1 and k != 1:
+        return np.full(k, a[0])
+    return vector(name, a, k)
+
+
+def limit_vector(name, value, n):
+    """A per-entry positive bound as an (n,) array; a scalar is broadcast, +inf means unbounded."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ArgumentError(name, f'expected a number or {n} numbers, got {value!r}') from exc
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    if a.shape != (n,):
+        raise ArgumentError(name, f'expected a scalar or length {n}, got shape {a.shape}')
+    if not np.all(a > 0.0):   # NaN fails the comparison
+        raise ArgumentError(name, f'expected positive bounds (inf allowed), got {a.tolist()}')
+    return a
+
+
+def bool_mask(name, value, n):
+    """`value` as a bool (n,) array, or ArgumentError naming `name` (wrong length or not booleans)."""
+    a = np.asarray(value)
+    if a.dtype != np.bool_:
+        raise ArgumentError(name, f'expected a boolean mask, got dtype {a.dtype}')
+    if a.shape != (n,):
+        raise ArgumentError(name, f'expected length {n}, got shape {a.shape}')
+    return a
+
+
+def result(name, value):
+    """`value` (a 1-D float array) if every entry is finite, else ArgumentError naming `name`: an
+    overflow of finite inputs."""
+    if not finite(value):
+        raise ArgumentError(name, f'non-finite result {np.asarray(value).tolist()} from finite inputs')
+    return value

@@ -1,7 +1,6 @@
-"""Pacing and command bookkeeping of the bridge node, free of rclpy (DESIGN §5).
-
-The node translates messages and calls into these small objects; everything that decides
-*when* physics runs and *which* torque is in force lives here so it can be tested without DDS.
+"""The small pieces of the bridge's loop (sim_bridge.bridge_loop), free of rclpy: real-time pacing,
+the command watchdog, the lockstep gate, command checks and mapping, the source guard, and the
+rate and deadline meters.
 
 Time: simulation time is integer nanoseconds (as the World keeps it); wall time is integer
 nanoseconds of a monotonic clock (``time.monotonic_ns``).
@@ -227,15 +226,15 @@ class CommandMapper:
 
 
 class SourceGuard:
-    """Refuses to mix commands from more than one publisher (DESIGN §5: one controller).
+    """Refuses to mix commands from more than one publisher: one controller drives the robot.
 
     Evidence of mixing, checked per message in O(1):
     - a command on a topic that the ROS graph shows with more than one publisher (the counts are
-      refreshed by the node: periodically and whenever a lockstep answer comes twice);
+      refreshed by the loop: periodically and whenever a lockstep answer comes twice);
     - commands on both command topics (JointState and Float64MultiArray) within `timeout_ns`;
     - stamped commands (JointState, `stamp_ns` given) whose stamp is not after the previous one's
       while the graph shows more than one publisher (two sources answering the same states).
-    While there is evidence the node holds the brakes; the conflict clears after `timeout_ns` of
+    While there is evidence the loop holds the brakes; the conflict clears after `timeout_ns` of
     simulation time without new evidence.
 
     A controller killed without a goodbye (SIGKILL, a crash) stays in the ROS graph for its DDS

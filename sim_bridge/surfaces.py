@@ -6,8 +6,8 @@ changeDynamics(contactStiffness=k_e, contactDamping=b_e, lateralFriction=0) and 
 carries a single collision sphere of radius r centred on the tip frame origin (the closed-form
 URDFs already have one; for other URDFs the tip's collision shapes are replaced by it). The box
 face sits r beyond x_e, so contact begins exactly when the tip frame reaches x_e. With
-contactSlop = 0 the steady-state contact force is k_e times the penetration to solver precision
-(measured: < 0.01 %). Every robot-surface contact point counts in the wrench.
+contactSlop = 0 the steady-state contact force is k_e times the penetration to solver
+precision. Every robot-surface contact point counts in the wrench.
 """
 import os
 import tempfile
@@ -16,9 +16,10 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pybullet as p
 
-from robot_control.validation import ArgumentError
+from robot_control import urdf as urdf_files
 from robot_control import validation
 from robot_control.scenarios import Surface
+from robot_control.validation import ArgumentError
 
 #: radius of the probe sphere put on a URDF robot's tip, m (the closed-form URDFs use 0.01 too)
 PROBE_RADIUS = 0.01
@@ -63,13 +64,9 @@ def check_surface(surface):
 def probe_urdf(path, tip, out_dir, radius=PROBE_RADIUS):
     """Write a copy of URDF `path` in `out_dir` whose link `tip` collides only through a sphere
     of `radius` (m) at its frame origin; relative mesh paths are made absolute. Returns the copy."""
-    tree = ET.parse(path)
-    base = os.path.dirname(os.path.abspath(path))
-    for mesh in tree.getroot().iter('mesh'):
-        name = mesh.get('filename', '')
-        if name and '://' not in name and not os.path.isabs(name):
-            mesh.set('filename', os.path.join(base, name))
-    links = [ln for ln in tree.getroot().iter('link') if ln.get('name') == tip]
+    with open(path, encoding='utf-8') as f:
+        root = ET.fromstring(urdf_files.with_absolute_meshes(f.read(), os.path.dirname(os.path.abspath(path))))
+    links = [ln for ln in root.iter('link') if ln.get('name') == tip]
     if not links:
         raise ArgumentError('tip', f'no link {tip!r} in {path}')
     for old in links[0].findall('collision'):
@@ -79,7 +76,7 @@ def probe_urdf(path, tip, out_dir, radius=PROBE_RADIUS):
     ET.SubElement(ET.SubElement(collision, 'geometry'), 'sphere', radius=repr(float(radius)))
     fd, out = tempfile.mkstemp(suffix='.urdf', dir=out_dir)
     os.close(fd)
-    tree.write(out)
+    ET.ElementTree(root).write(out)
     return out
 
 

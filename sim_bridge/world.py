@@ -1,4 +1,4 @@
-"""The PyBullet world: the "real robot" of every scenario (DESIGN §3, §5). No rclpy, no messages.
+"""The PyBullet world: the "real robot" of every scenario. No rclpy, no messages.
 
     M(q) qdd + C(q, qd) qd + g(q) = tau + tau_env,   tau = clip(command, effort limits)
 
@@ -6,7 +6,7 @@ tau_env holds what the world adds: the mass-spring's -k x^3 - b xd, contact with
 and the configured disturbance. Units SI (rad, m, N m, N, s); time is kept as integer
 nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True).
 
-PyBullet facts respected (DESIGN §5): URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
+PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
 base; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
 (default 0.04) and URDF joint damping zeroed; the torque is re-sent before every stepSimulation
 (PyBullet clears applied torques after each step); fixed step dt without substeps.
@@ -84,7 +84,19 @@ def _surface(sc, surface):
     return surfaces.check_surface(surface)
 
 
-def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir):
+def _with_payload(path, tip, payload, tmpdir):
+    """A copy of the URDF at `path` whose tip carries the payload (robot_control.urdf.with_payload)."""
+    if tip is None:
+        raise ArgumentError('payload', 'needs a tip link (tip=...)')
+    xml, _ = urdf_files.read(path)
+    xml = urdf_files.with_absolute_meshes(xml, os.path.dirname(os.path.abspath(path)))
+    out = os.path.join(tmpdir, 'with_payload.urdf')
+    with open(out, 'w', encoding='utf-8') as f:
+        f.write(urdf_files.with_payload(xml, tip, *payload))
+    return out
+
+
+def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payload, tmpdir):
     """The build specification; every check that can fail before PyBullet runs."""
     truth, model, gravity = _truth(sc, params)
     closed_form = model is not None
@@ -111,9 +123,35 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, tmpdir
         raise ArgumentError('surface', 'needs a tip link (tip=...)')
     if wall is not None and not closed_form:
         path = surfaces.probe_urdf(path, tip, tmpdir)
+    if payload is not None:
+        path = _with_payload(path, tip, payload, tmpdir)
     spring = (model.k, model.b) if closed_form and sc.model == 'mass_spring_cubic' else None
     damping = validation.scalar('surface_damping', surface_damping, nonnegative=True)
     return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring)
+
+
+def _whole_ns(dt):
+    """The physics step dt (s) as whole nanoseconds; ArgumentError naming dt otherwise."""
+    dt = validation.scalar('dt', dt, positive=True)
+    dt_ns = round(dt * 1e9)
+    if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
+        raise ArgumentError('dt', f'expected a whole number of nanoseconds, got {dt} s')
+    return dt_ns
+
+
+def _zero_damping(client, body):
+    """No hidden damping: PyBullet's default link and joint damping would act on every joint."""
+    for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
+        p.changeDynamics(body, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                         physicsClientId=client)
+
+
+def _hold(client, body, joints):
+    """Lock the movable joints that are not controlled at 0 (as UrdfModel locks them at neutral)."""
+    if joints:
+        k = len(joints)
+        p.setJointMotorControlArray(body, joints, p.POSITION_CONTROL, targetPositions=[0.0] * k,
+                                    forces=[UNLIMITED_BRAKE] * k, physicsClientId=client)
 
 
 class World:
@@ -126,19 +164,20 @@ class World:
     urdf, joints, q0, tip: override the scenario's URDF file, joint names (command order),
       start positions (rad or m) and tip link.
     surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.
+    payload: None or (mass kg, com (3,) m in the tip link's frame): robot_control.urdf.with_payload.
     disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
     """
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
-                 surface=True, disturbance=None, tip=None, surface_damping=0.0):
+                 surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None):
         self.scenario = _scenario(scenario)
-        self.dt_ns = self._dt_ns(dt)
+        self.dt_ns = _whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
         self._tmpdir = tempfile.mkdtemp(prefix='sim_bridge_')
         self._client = None
         try:
             self._spec = _resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
-                                  self._tmpdir)
+                                  payload, self._tmpdir)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
             self._client = p.connect(p.GUI if gui else p.DIRECT)
             if self._client < 0:
@@ -147,14 +186,6 @@ class World:
         except BaseException:
             self.close()
             raise
-
-    @staticmethod
-    def _dt_ns(dt):
-        dt = validation.scalar('dt', dt, positive=True)
-        dt_ns = round(dt * 1e9)
-        if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
-            raise ArgumentError('dt', f'expected a whole number of nanoseconds, got {dt} s')
-        return dt_ns
 
     # -- properties ----------------------------------------------------------------------------
     @property
@@ -171,6 +202,11 @@ class World:
     def effort_limit(self):
         """Per-joint effort limit from the URDF, N m or N, (n,); inf where the URDF sets none."""
         return self._limit.copy()
+
+    @property
+    def urdf(self):
+        """Path of the URDF file the simulated robot was loaded from (generated for closed forms)."""
+        return self._spec.urdf
 
     @property
     def gravity(self):
@@ -221,8 +257,8 @@ class World:
         except p.error as exc:
             raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
         self._index_joints()
-        self._zero_damping()
-        self._hold_other_joints()
+        _zero_damping(c, self._body)
+        _hold(c, self._body, self._others)
         p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
                                     physicsClientId=c)
         self._check_travel(q0)
@@ -264,18 +300,6 @@ class World:
         for name, q, (lower, upper) in zip(self._spec.joints, q0, self._travel):
             if lower <= upper and not lower <= q <= upper:
                 raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
-
-    def _zero_damping(self):
-        for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
-            p.changeDynamics(self._body, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
-                             physicsClientId=self._client)
-
-    def _hold_other_joints(self):
-        """Movable joints not controlled are locked at 0 (as UrdfModel locks them at neutral)."""
-        if self._others:
-            k = len(self._others)
-            p.setJointMotorControlArray(self._body, self._others, p.POSITION_CONTROL, targetPositions=[0.0] * k,
-                                        forces=[UNLIMITED_BRAKE] * k, physicsClientId=self._client)
 
     def _make_wall(self):
         spec = self._spec

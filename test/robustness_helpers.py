@@ -151,7 +151,7 @@ def processes():
 
 
 def bridge(domain_id, log_dir, scenario='polar_two_link', namespace=None, **params):
-    """The bridge process with config/<scenario>.yaml (no file in a namespace: the YAML keys are root names)."""
+    """The bridge process with config/<scenario>.yaml (in a namespace: no file, the scenario parameter's defaults)."""
     args = ros_args(None if namespace else config(scenario), **params)
     if namespace:   # /clock is absolute: each namespace gets its own
         args += ['-p', f'scenario:={scenario}', '-r', f'__ns:={namespace}', '-r', f'/clock:={namespace}/clock']
@@ -259,7 +259,7 @@ def _strategies():
 #: faults a node must reject (never act on), per topic family
 JOINT_STATE_REJECT = ('nan', 'inf', 'huge', 'empty', 'length', 'duplicate', 'missing', 'unknown', 'stamp_past',
                       'stamp_future', 'stamp_negative')
-TRAJECTORY_REJECT = ('nan', 'inf', 'empty', 'length', 'duplicate', 'unknown', 'missing', 'times', 'partial',
+TRAJECTORY_REJECT = ('nan', 'inf', 'length', 'duplicate', 'unknown', 'missing', 'times', 'partial',
                      'stamp_past', 'huge')
 WRENCH_REJECT = ('nan', 'inf', 'huge')
 COMMAND_REJECT = ('nan', 'inf', 'empty', 'length', 'duplicate', 'unknown', 'missing', 'extra')
@@ -378,10 +378,10 @@ def joint_states(joints):
 def trajectories(joints):
     """trajectory_msgs/JointTrajectory fields for ~/joint_trajectory, each with at least one fault.
 
-    Faults: nan, inf, huge positions (1e6 and beyond: outside any joint's travel), empty points,
-    length (positions not one per joint), duplicate / unknown / missing joint_names, times
-    (time_from_start zero, negative, equal or decreasing), partial (velocities in some points
-    only), stamp_past (the whole trajectory ended long ago), stamp_future (starts in 2^31 s).
+    Faults: nan, inf, huge positions (1e6 and beyond: outside any joint's travel), empty points (a
+    cancel, accepted), length (positions not one per joint), duplicate / unknown / missing
+    joint_names, times (a single point at 0 s, negative, equal or decreasing), partial (velocities in
+    some points only), stamp_past (the whole trajectory ended long ago), stamp_future (starts in 2^31 s).
     """
     st = _strategies()
     names = name_variants(joints)
@@ -418,8 +418,10 @@ def trajectories(joints):
                 pos.append(list(pos[-1]))
                 if vel is not None:
                     vel.append(list(vel[-1]))
+            elif how == 'zero':            # nothing after 0 s: a jump, refused
+                times, pos, vel = [0.0], pos[:1], None if vel is None else vel[:1]
             else:
-                times[0] = 0.0 if how == 'zero' else -draw(st.floats(0.001, 1e4))
+                times[0] = -draw(st.floats(0.001, 1e4))
         elif kind == 'partial':
             times.append(times[-1] + 0.5)
             pos.append(list(pos[-1]))

@@ -1,4 +1,5 @@
-"""The rclpy-free layers import no rclpy, no message package and (but the world) no pybullet.
+"""The rclpy-free layers import no rclpy, no message package and (but the world) no pybullet, and
+no module of a layer above their own (library < core < ros, tools; the bridge's world and loop beside the core).
 
 Each module is imported alone in a fresh interpreter, so a forbidden import anywhere in its
 import graph shows up in sys.modules. The module list is discovered at collection time: every
@@ -15,11 +16,13 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: the rclpy-free layers: the library, the control core, the simulated world and the bridge's loop
-#: (whole subpackages), plus the named modules beside them
+#: (whole subpackages), plus the named modules beside them (the parameter tables among them)
 PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core']
 NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
-         'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.ros.throttle',
-         'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.loop']
+         'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.core.throttle',
+         'robot_control.ros.param_table', 'robot_control.ros.params', 'robot_control.ros.controller_config',
+         'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.loop',
+         'sim_bridge.bridge_loop', 'sim_bridge.parameters']
 PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces'}
 
 
@@ -77,3 +80,42 @@ def test_the_probe_detects_a_forbidden_import():
     assert bad == ['pybullet']
     assert _forbidden('sensor_msgs.msg', True) and _forbidden('rclpy.node', True)
     assert not _forbidden('pybullet', True) and not _forbidden('pybullet_data', False)
+
+
+#: a module of a layer may import its own layer and the ones below it, never one above
+ABOVE = {
+    'library': ('robot_control.core', 'robot_control.ros', 'robot_control.tools', 'sim_bridge'),
+    'core': ('robot_control.ros', 'robot_control.tools', 'sim_bridge'),
+    'sim': ('robot_control.ros', 'robot_control.tools', 'sim_bridge.bridge_node'),   # beside the core
+}
+
+
+def _layer(name):
+    if name.startswith('robot_control.ros') or name == 'sim_bridge.parameters':
+        return None            # parameter tables: the ROS layer's, rclpy-free but above the core
+    if name.startswith('sim_bridge'):
+        return 'sim'
+    if name.startswith('robot_control.core'):
+        return 'core'
+    return 'library'
+
+
+def _upward(name, loaded):
+    layer = _layer(name)
+    if layer is None:
+        return []
+    return [m for m in loaded if m != name and m.startswith(ABOVE[layer])
+            and not (m == 'sim_bridge' and layer == 'sim')]
+
+
+@pytest.mark.parametrize('name', [n for n in LIBRARY if _layer(n)])
+def test_library_module_imports_no_layer_above_its_own(name):
+    up = _upward(name, _loaded(name))
+    assert not up, f'{name} ({_layer(name)}) imports {up} from a layer above'
+
+
+def test_the_layer_check_detects_an_upward_import():
+    assert _upward('robot_control.laws.hybrid', ['robot_control.laws.hybrid', 'robot_control.core.config'])
+    assert _upward('robot_control.core.controller', ['robot_control.ros.qos'])
+    assert _upward('sim_bridge.loop', ['sim_bridge.bridge_node'])
+    assert not _upward('sim_bridge.loop', ['sim_bridge', 'sim_bridge.world', 'robot_control.models'])

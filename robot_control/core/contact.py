@@ -1,4 +1,4 @@
-"""Safety pieces of the control library, without ROS: the lost-contact guard of force control.
+"""The lost-contact guard of force control (control core, no ROS).
 
 Force control in free space runs away. On a force axis the lecture's servo commands
     F_N = K_e^-1 (fdd_d + kv (fd_d - fdot) + kp (f_d - f)),   fdot = k_e xd,
@@ -29,8 +29,8 @@ import math
 
 import numpy as np
 
-from robot_control.validation import ArgumentError
 from robot_control import validation
+from robot_control.validation import ArgumentError
 
 
 class ContactGuard:
@@ -85,13 +85,12 @@ class ContactGuard:
         return s * (x - self.x_e) - s * f / self.k_e
 
     def check(self, x, xd, f, f_d):
-        """Update with the force-axis state: x (k,) m, xd (k,) m/s, f (k,) N measured, f_d (k,) N target.
+        """Update with the force-axis state: x (k,) m, xd (k,) m/s, f (k,) N measured, f_d (k,) N target,
+        finite float64 arrays (the controller core's, checked where they entered).
 
         Returns the bool (k,) tripped mask (internal array: do not modify). Newly tripped axes
         latch x_hold = x and set `reason`; `trips` counts trip events.
         """
-        k = self.k
-        x, xd, f, f_d = (validation.vector(name, v, k) for name, v in (('x', x), ('xd', xd), ('f', f), ('f_d', f_d)))
         beyond = self.beyond(x, f, f_d)
         over_travel = beyond > self.max_travel
         over_speed = np.abs(xd) > self.max_speed

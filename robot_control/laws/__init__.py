@@ -1,18 +1,37 @@
-"""Control laws as pure functions of arrays (the lecture's notation; DESIGN section 4).
+"""Control laws: each a function of arrays (its equation, checked at the public entry) and a Law class.
 
 servo + Integral: the servo portion v = qdd_d + Kv Ed + Kp E + Ki int E, and the error integral.
 computed_torque: tau = M v + C qd + g.  independent_joint: tau = Kp E + Kv Ed + Ki int E.
-force_1dof: tau = m v + f.  hybrid: operational-space hybrid position/force control.
-saturate: clip to the effort limits, with the mask that holds the integral (anti-windup).
+force_1dof: tau = m v + f.  hybrid: hybrid position/force control in operational space.
+gravity_compensation: tau = g(q).  impedance: Cartesian impedance in operational space.  saturate: clip to the effort limits, with the saturated mask.
+
+LAWS is the registry the controller core and the tools ask: law name -> Law class (laws.base).
+A new law is one module with its equation and its Law class, and one entry here.
 """
-from robot_control.laws.computed_torque import computed_torque
-from robot_control.laws.force import force_1dof, spring_force
-from robot_control.laws.hybrid import (hybrid, hybrid_error, hybrid_servo, operational_space,
-                                       posture_acceleration, task_space_torque)
-from robot_control.laws.independent_joint import independent_joint
+from robot_control.laws.base import Law, Tick
+from robot_control.laws.computed_torque import ComputedTorque, computed_torque
+from robot_control.laws.force import Force, force_1dof, spring_force
+from robot_control.laws.gravity_compensation import GravityCompensation, gravity_compensation
+from robot_control.laws.hybrid import Hybrid, hybrid, hybrid_error, hybrid_servo
+from robot_control.laws.impedance import Impedance, impedance
+from robot_control.laws.independent_joint import IndependentJoint, independent_joint
+from robot_control.laws.operational_space import operational_space, posture_acceleration
 from robot_control.laws.saturation import saturate
 from robot_control.laws.servo import Integral, servo
+from robot_control.validation import ArgumentError
 
-__all__ = ['Integral', 'servo', 'computed_torque', 'independent_joint', 'force_1dof', 'spring_force',
-           'hybrid', 'hybrid_error', 'hybrid_servo', 'operational_space', 'posture_acceleration',
-           'task_space_torque', 'saturate']
+#: law name -> Law class, in the order the parameter table lists them
+LAWS = {law.name: law for law in (ComputedTorque, IndependentJoint, Force, Hybrid, GravityCompensation, Impedance)}
+
+
+def law_class(name):
+    """The Law class registered as `name`; ArgumentError naming `law` with the known names otherwise."""
+    try:
+        return LAWS[name]
+    except (KeyError, TypeError):
+        raise ArgumentError('law', f'unknown {name!r}; expected one of {list(LAWS)}') from None
+
+
+__all__ = ['LAWS', 'Law', 'Tick', 'law_class', 'Integral', 'servo', 'computed_torque', 'independent_joint',
+           'force_1dof', 'spring_force', 'hybrid', 'hybrid_error', 'hybrid_servo', 'operational_space',
+           'posture_acceleration', 'gravity_compensation', 'impedance', 'saturate']

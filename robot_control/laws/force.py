@@ -5,45 +5,38 @@ Plant: m xdd + f = tau, f = k_e (x - x_e) the force the robot exerts on the envi
 v = (1/k_e)(fdd_d + kv Ef_dot + kp Ef), Ef = f_d - f; with fdd = k_e xdd the closed loop is
 Ef'' + kv Ef' + kp Ef = 0.
 """
-import math
-
 import numpy as np
 
 from robot_control import validation
-from robot_control.laws.servo import check_finite, per_entry, servo, servo_gains
-from robot_control.validation import ArgumentError, all_finite, finite, is_vector
+from robot_control.laws.base import Law
+from robot_control.laws.servo import _servo, servo_gains
+from robot_control.validation import ArgumentError
+
+
+def _force_1dof(m, f, fdd_d, Ef, Ef_dot, k_e, gains, int_Ef=None):
+    """tau = m v + f,  v = (1/k_e)(fdd_d + kv Ef_dot + kp Ef (+ ki int Ef)); checked (1,) arrays."""
+    v = _servo(fdd_d, Ef, Ef_dot, gains, int_Ef) / k_e
+    return m * v + f
 
 
 def force_1dof(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef=None):
     """tau = m v + f, v = (fdd_d + kv (fd_d - fdot) + kp (f_d - f) + ki int_Ef) / k_e; returns (1,) N.
 
     m in kg (> 0), forces in N, rates in N/s and N/s^2, k_e in N/m (> 0); gains kp, kv, ki each (1,).
-    """
-    g = servo_gains(gains, 1)
-    if (g is not None and isinstance(m, float) and isinstance(k_e, float) and 0.0 < m < math.inf
-            and 0.0 < k_e < math.inf and is_vector(f, 1) and is_vector(fdot, 1) and is_vector(f_d, 1)
-            and is_vector(fd_d, 1) and is_vector(fdd_d, 1) and (int_Ef is None or is_vector(int_Ef, 1))
-            and all_finite(f, fdot, f_d, fd_d, fdd_d) and (int_Ef is None or finite(int_Ef))):
-        kp, kv, ki = g
-        v = fdd_d + kv * (fd_d - fdot) + kp * (f_d - f)
-        if int_Ef is not None:
-            v = v + ki * int_Ef
-        tau = m * (v / k_e) + f
-        if finite(tau):  # else an overflow: the checked path names it
-            return tau
-    return _force_1dof_checked(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef)
-
-
-def _force_1dof_checked(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef):
+    ArgumentError naming the first bad argument."""
     m = validation.scalar('m', m, positive=True)
     k_e = validation.scalar('k_e', k_e, positive=True)
-    f = validation.vector('f', f, 1)
-    Ef = validation.vector('f_d', f_d, 1) - f
-    Ef_dot = validation.vector('fd_d', fd_d, 1) - validation.vector('fdot', fdot, 1)
-    if int_Ef is not None:
-        int_Ef = validation.vector('int_Ef', int_Ef, 1)
-    v = servo(validation.vector('fdd_d', fdd_d, 1), Ef, Ef_dot, gains, int_Ef) / k_e
-    return check_finite('tau', m * v + f)
+    f, fdot, f_d, fd_d, fdd_d = validation.vectors(1, f=f, fdot=fdot, f_d=f_d, fd_d=fd_d, fdd_d=fdd_d)
+    gains = servo_gains('gains', gains, 1)
+    int_Ef = validation.optional_vector('int_Ef', int_Ef, 1)
+    return validation.result('tau', _force_1dof(m, f, fdd_d, f_d - f, fd_d - fdot, k_e, gains, int_Ef))
+
+
+def _spring_force(x, xd, x_e, k_e, sign):
+    """f = k_e (x - x_e), fdot = k_e xd where in contact (sign 0: everywhere; +1 / -1: where
+    sign (x - x_e) > 0), 0 elsewhere; checked (k,) arrays."""
+    contact = (sign == 0.0) | (sign * (x - x_e) > 0.0)
+    return np.where(contact, k_e * (x - x_e), 0.0), np.where(contact, k_e * xd, 0.0)
 
 
 def spring_force(x, xd, x_e, k_e, sign=0.0):
@@ -56,14 +49,59 @@ def spring_force(x, xd, x_e, k_e, sign=0.0):
     x = validation.vector('x', x)
     k = x.shape[0]
     xd = validation.vector('xd', xd, k)
-    x_e = per_entry('x_e', x_e, k)
-    k_e = per_entry('k_e', k_e, k)
+    x_e = validation.per_entry('x_e', x_e, k)
+    k_e = validation.per_entry('k_e', k_e, k)
     if not np.all(k_e > 0.0):
         raise ArgumentError('k_e', f'expected positive stiffness, got {k_e.tolist()}')
-    sign = per_entry('sign', sign, k)
+    sign = validation.per_entry('sign', sign, k)
     if not np.all(np.isin(sign, (-1.0, 0.0, 1.0))):
         raise ArgumentError('sign', f'expected -1, 0 or +1 per axis, got {sign.tolist()}')
-    contact = (sign == 0.0) | (sign * (x - x_e) > 0.0)
-    f = np.where(contact, k_e * (x - x_e), 0.0)
-    fdot = np.where(contact, k_e * xd, 0.0)
-    return check_finite('f', f), check_finite('fdot', fdot)
+    f, fdot = _spring_force(x, xd, x_e, k_e, sign)
+    return validation.result('f', f), validation.result('fdot', fdot)
+
+
+class Force(Law):
+    """The registry's 'force': the lecture's 1-DOF force servo on the model's one task axis."""
+
+    name = 'force'
+    tracks = 'task'
+    needs_task_space = True
+    uses_force = True
+
+    def __init__(self, config):
+        super().__init__(config)
+        model = self.model
+        if model.n != 1 or model.task_dim != 1:
+            raise ArgumentError('law', f'force is the 1-DOF force servo; the model has {model.n} joints and '
+                                       f'{model.task_dim} task axes (use hybrid)')
+        if len(config.force_axes) != 1:
+            raise ArgumentError('force_axes', f'law force needs its task axis {list(model.task_axes)}, '
+                                              f'got {list(config.force_axes)}')
+        self.check_servo_gains('force_kp', config.force_gains, 1)
+        self.k_e = float(config.k_e[0])
+
+    @classmethod
+    def servo_sizes(cls, model, force_axes):
+        return ()
+
+    @property
+    def integral_dim(self):
+        return 1
+
+    @property
+    def reference_names(self):
+        return self.config.force_axes
+
+    def integral_gains(self):
+        if not self.config.integral:
+            return np.zeros(1), np.zeros(1)
+        return np.array(self.config.force_gains.ki), np.array(self.config.force_gains.kv)
+
+    def errors(self, tick):
+        np.subtract(tick.f_d, tick.f, out=self.E)
+        np.subtract(tick.fd_d, tick.fdot, out=self.Ed)
+        tick.ref, tick.E, tick.Ed = (tick.f_d, tick.fd_d, tick.fdd_d), self.E, self.Ed
+
+    def torque(self, tick, int_E):
+        m = self.model._M(tick.q)[0, 0]
+        return _force_1dof(m, tick.f, tick.fdd_d, tick.E, tick.Ed, self.k_e, self.config.force_gains, int_E)

@@ -41,8 +41,8 @@ def for_scenario(scenario, **overrides):
 
     Closed-form scenarios: make_model(scenario.model, **{**scenario.params, **overrides}).
     URDF scenarios: UrdfModel(scenario.urdf, joints=scenario.joints, tip=scenario.tip), where
-    overrides may set urdf, joints, tip, q_locked, and gravity (m/s^2 downwards along world z,
-    or a 3-vector); scenario.params['gravity'], if any, is the default.
+    overrides may set urdf, joints, tip, q_locked, task_space, payload, and gravity (m/s^2
+    downwards along world z, or a 3-vector); scenario.params['gravity'], if any, is the default.
     """
     from robot_control import scenarios
     if isinstance(scenario, str):
@@ -52,7 +52,7 @@ def for_scenario(scenario, **overrides):
     if scenario.model != 'urdf':
         return make_model(scenario.model, **{**scenario.params, **overrides})
     from robot_control.models.urdf_model import UrdfModel, resolve_urdf
-    allowed = {'urdf', 'joints', 'tip', 'q_locked', 'gravity'}
+    allowed = {'urdf', 'joints', 'tip', 'q_locked', 'gravity', 'task_space', 'payload'}
     unknown = sorted(set(overrides) - allowed)
     if unknown:
         raise ArgumentError('overrides', f'unknown {unknown} for URDF scenario {scenario.name!r}; '

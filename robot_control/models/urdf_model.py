@@ -3,8 +3,10 @@
     M(q) qdd + C(q, qd) qd + g(q) = tau, with q, qd, tau ordered as the `joints` argument.
 
 The URDF's other movable joints are locked (pin.buildReducedModel) at `q_locked` or at the
-neutral configuration. Task space: the 3-D position of frame `tip` in the world frame;
-J and Jdot qd are expressed in LOCAL_WORLD_ALIGNED axes (world axes at the tip point).
+neutral configuration. Joint-space vectors hold one entry per selected joint: the angle (rad) or
+the travel (m). A continuous joint is an angle here too; Pinocchio represents it by (cos, sin),
+which JointMap fills in. Task space: the 3-D position of frame `tip` in the world frame; J and
+Jdot qd are expressed in LOCAL_WORLD_ALIGNED axes (world axes at the tip point).
 Units SI; gravity is a world vector, default (0, 0, -9.81) m/s^2.
 """
 import xml.etree.ElementTree as ET
@@ -13,10 +15,10 @@ from collections.abc import Mapping
 import numpy as np
 import pinocchio as pin
 
-from robot_control.validation import ArgumentError
-from robot_control import urdf as urdf_files
 from robot_control import units, validation
-from robot_control.models.base import RobotModel
+from robot_control import urdf as urdf_files
+from robot_control.models.base import TASK_SPACES, RobotModel
+from robot_control.validation import ArgumentError
 
 #: world axes at the tip point, the frame of J and Jdot qd
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -28,122 +30,152 @@ resolve_urdf = urdf_files.resolve
 
 
 def _parse(xml, where):
-    """Pinocchio model of URDF text; ValueError naming `urdf` on anything malformed."""
+    """Pinocchio model of URDF text; ArgumentError naming `urdf` on anything malformed."""
     try:
-        root = ET.fromstring(xml)
+        root = ET.fromstring(xml.lstrip())   # urdfdom, like PyBullet, allows blank lines before <?xml ...?>
     except ET.ParseError as exc:
         raise ArgumentError('urdf', f'{where} is not well-formed XML: {exc}') from None
     if root.tag != 'robot':
         raise ArgumentError('urdf', f'{where} has root element <{root.tag}>, expected <robot>')
     try:
-        return pin.buildModelFromXML(xml)
+        model = pin.buildModelFromXML(xml)
     except (ValueError, RuntimeError) as exc:
         raise ArgumentError('urdf', f'{where} is not a valid URDF: {exc}') from None
+    _rename_joint_frames(model)
+    return model
+
+
+def _rename_joint_frames(model):
+    """Rename the frame of a joint that shares its link's name to '<name> (joint)', in place.
+
+    URDF keeps link and joint names apart (minitaur has a fixed joint named like a link), but
+    Pinocchio's buildReducedModel looks frames up by name alone and fails on such a pair. Joints
+    keep their names (model.names); only the joint's frame is renamed, the link's stays.
+    """
+    joint_types = (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT)
+    for i, frame in enumerate(model.frames):
+        if frame.type in joint_types and model.existFrame(frame.name, pin.FrameType.BODY):
+            frame.name = f'{frame.name} (joint)'
+            model.frames[i] = frame
+
+
+def _is_continuous(jm):
+    """A revolute joint without limits, which Pinocchio holds as (cos, sin): nq = 2, nv = 1."""
+    return jm.nq == 2 and jm.nv == 1
+
+
+class JointMap:
+    """Joint-space vectors (one entry per selected joint) <-> Pinocchio's configuration and tangent
+    vectors. q: angles or travels; a continuous joint's angle th becomes (cos th, sin th)."""
+
+    def __init__(self, model, joints):
+        ids = [model.getJointId(name) for name in joints]
+        jms = [model.joints[i] for i in ids]
+        n = len(ids)
+        self.iv = np.array([jm.idx_v for jm in jms])
+        self.ix = np.ix_(self.iv, self.iv)
+        continuous = [k for k, jm in enumerate(jms) if _is_continuous(jm)]
+        simple = [k for k in range(n) if k not in continuous]
+        self._simple, self._continuous = np.array(simple, dtype=int), np.array(continuous, dtype=int)
+        self._iq = np.array([jms[k].idx_q for k in simple], dtype=int)
+        self._iq_cos = np.array([jms[k].idx_q for k in continuous], dtype=int)
+        self._q = pin.neutral(model)
+        self._v = np.zeros(model.nv)
+        #: vectors go to Pinocchio as they are: every joint 1-DOF, selected in Pinocchio's order
+        self.identity = (not continuous and model.nq == n and model.nv == n
+                         and np.array_equal(self._iq, np.arange(n)) and np.array_equal(self.iv, np.arange(n)))
+
+    def q(self, q):
+        """Pinocchio's configuration of the joint positions q (n,) (a scratch array, or q itself)."""
+        if self.identity:
+            return q
+        self._q[self._iq] = q[self._simple]
+        if self._continuous.size:
+            angles = q[self._continuous]
+            self._q[self._iq_cos] = np.cos(angles)
+            self._q[self._iq_cos + 1] = np.sin(angles)
+        return self._q
+
+    def v(self, qd, out=None):
+        """Pinocchio's tangent vector of the joint velocities (or accelerations, torques) qd (n,)."""
+        if self.identity:
+            return qd
+        out = self._v if out is None else out
+        out[self.iv] = qd
+        return out
+
+    def joint_order(self, a):
+        """A Pinocchio tangent-space vector (nv,) in joint order (n,)."""
+        return a if self.identity else a[self.iv]
+
+    def matrix(self, m):
+        """A Pinocchio (nv, nv) matrix in joint order (n, n)."""
+        return m if self.identity else m[self.ix]
 
 
 class UrdfModel(RobotModel):
     """Rigid-body dynamics of URDF robot `urdf` restricted to `joints`, via Pinocchio.
 
-    urdf: file path, URDF XML text, or a name resolve_urdf() knows ('kuka_iiwa/model.urdf').
+    urdf: file path, URDF XML text, or a name robot_control.urdf.resolve knows ('kuka_iiwa/model.urdf').
     joints: joint names in the order of every joint-space vector (default: all movable joints
-      in URDF tree order). Only 1-DOF joints (revolute, prismatic) can be selected.
-    tip: frame (link) name for fk/J/Jdot_qd; None -> no task space.
+      in URDF tree order). Revolute, prismatic and continuous joints can be selected.
+    tip: frame (link) name for fk/J/Jdot_qd; None -> no task space. A joint named like a link
+      keeps the link's name for the link: its own frame is '<name> (joint)'.
+    task_space: 'position' (x, y, z of the tip frame's origin, m) or 'pose' (also rx, ry, rz: its
+      orientation as the rotation vector log3(R), rad; velocities are the frame's twist, angular
+      velocity in world axes, and the orientation error is log3(R_d R^T), see _task_difference).
+    payload: None, or (mass kg, com (3,) m in the tip frame): a solid sphere carried by the tip
+      (robot_control.urdf.with_payload, the same the simulator can carry).
     q_locked: positions of the other joints, a mapping {name: position} (rad or m; unnamed
-      ones at neutral), or a full Pinocchio configuration (length of the URDF's nq).
+      ones at neutral), or a full Pinocchio configuration (length of the URDF's nq, unit
+      (cos, sin) pairs and quaternions).
     gravity: world gravity vector, m/s^2.
     """
 
-    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -units.GRAVITY)):
+    def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -units.GRAVITY),
+                 task_space='position', payload=None):
         gravity = validation.vector('gravity', gravity, 3)
-        if isinstance(joints, str):
-            joints = (joints,)
-        if joints is not None:
-            try:
-                joints = validation.names('joints', joints)
-            except TypeError:
-                raise ArgumentError('joints', f'expected a sequence of joint names, got {joints!r}') from None
+        if task_space not in TASK_SPACES:
+            raise ArgumentError('task_space', f'expected one of {list(TASK_SPACES)}, got {task_space!r}')
         xml, where = urdf_files.read(urdf)
+        if payload is not None:
+            if tip is None:
+                raise ArgumentError('payload', 'a payload needs the tip that carries it')
+            xml = urdf_files.with_payload(xml, tip, *payload)
         full = _parse(xml, where)
         self.source = where                  # file path, or 'URDF XML string'
         movable = tuple(full.names[1:])
-        joints = movable if joints is None else joints
-        unknown = [j for j in joints if j not in movable]
-        if unknown:
-            raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
-        if not joints:
-            raise ArgumentError('joints', 'expected at least one joint')
-        for name in joints:
-            jm = full.joints[full.getJointId(name)]
-            if jm.nq != 1 or jm.nv != 1:
-                raise ArgumentError('joints', f'{name!r} is a {jm.shortname()} (nq={jm.nq}, nv={jm.nv}); '
-                                 'only 1-DOF revolute/prismatic joints can be selected')
-        q_ref = self._reference(full, movable, joints, q_locked)
-        lock = [full.getJointId(n) for n in movable if n not in joints]
-        model = pin.buildReducedModel(full, lock, q_ref) if lock else full
+        joints = _selected(full, movable, joints)
+        q_ref = _reference(full, movable, joints, q_locked)
+        model = _reduced(full, [n for n in movable if n not in joints], q_ref)
         model.gravity = pin.Motion(gravity, np.zeros(3))
 
-        self.joint_names = tuple(joints)
+        self.joint_names = joints
         self.model = model                   # pinocchio Model (treat as read-only)
         self._data = model.createData()      # scratch, reused by every call
-        ids = [model.getJointId(n) for n in joints]
-        self._iq = np.array([model.joints[i].idx_q for i in ids])
-        self._iv = np.array([model.joints[i].idx_v for i in ids])
-        self._ix = np.ix_(self._iv, self._iv)
-        self._q = pin.neutral(model)         # model.nq == n: every remaining joint is selected
-        self._v = np.zeros(model.nv)
-        self._a = np.zeros(model.nv)
+        self._map = JointMap(model, joints)
+        self._a = np.zeros(model.nv)         # scratch: accelerations or torques in Pinocchio's order
         self._zero = np.zeros(model.nv)
-        n = len(ids)
-        # joints given in Pinocchio's order: vectors go to Pinocchio as they are, no reordering
-        self._in_order = (model.nq == n and model.nv == n and np.array_equal(self._iq, np.arange(n))
-                          and np.array_equal(self._iv, np.arange(n)))
-        self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # symmetrizes CRBA's upper triangle
-        self._task_key = None                # (q bytes, qd bytes) of the cached _task() result
-        self._task_out = None
-        self._effort = self._limit(model.effortLimit[self._iv])
-        self._lower = model.lowerPositionLimit[self._iq].copy()
-        self._upper = model.upperPositionLimit[self._iq].copy()
-        self._velocity = self._limit(model.velocityLimit[self._iv])
+        n = len(joints)
+        self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # CRBA fills the upper triangle only
+        self._limits(model, joints)
+        self.tip, self.frame_id, self.task_axes = None, None, ()
+        self.task_space = task_space
+        if tip is not None:
+            self.tip, self.frame_id, self.task_axes = tip, _frame(model, tip), TASK_SPACES[task_space]
+        self._rows = slice(0, len(self.task_axes))    # rows of the frame's 6-D quantities in the task space
 
-        if tip is None:
-            self.tip, self.frame_id, self.task_axes = None, None, ()
-        else:
-            if not isinstance(tip, str) or not model.existFrame(tip):
-                links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
-                raise ArgumentError('tip', f'unknown frame {tip!r}; the URDF\'s links are {links}')
-            body = model.existFrame(tip, pin.FrameType.BODY)   # a link, rather than a joint of that name
-            fid = model.getFrameId(tip, pin.FrameType.BODY) if body else model.getFrameId(tip)
-            self.tip, self.frame_id, self.task_axes = tip, fid, ('x', 'y', 'z')
-
-    @staticmethod
-    def _limit(values):
-        """URDF limits as an array; 0 (unset) or non-finite means no limit (inf)."""
-        out = np.array(values, dtype=float)
-        out[~(np.isfinite(out) & (out > 0.0))] = np.inf
-        return out
-
-    @staticmethod
-    def _reference(full, movable, joints, q_locked):
-        q_ref = pin.neutral(full)
-        if q_locked is None:
-            return q_ref
-        if isinstance(q_locked, Mapping):
-            for name, value in q_locked.items():
-                if name not in movable:
-                    raise ArgumentError('q_locked', f'unknown joint {name!r}; '
-                                     f'the URDF\'s movable joints are {list(movable)}')
-                if name in joints:
-                    raise ArgumentError('q_locked', f'{name!r} is one of the selected joints, it cannot be locked')
-                x = validation.scalar(f'q_locked[{name!r}]', value)
-                jm = full.joints[full.getJointId(name)]
-                if jm.nq == 1:
-                    q_ref[jm.idx_q] = x
-                elif jm.nq == 2 and jm.nv == 1:   # continuous joint: (cos, sin)
-                    q_ref[jm.idx_q:jm.idx_q + 2] = (np.cos(x), np.sin(x))
-                else:
-                    raise ArgumentError('q_locked', f'{name!r} is a {jm.shortname()}; give a full configuration instead')
-            return q_ref
-        return validation.vector('q_locked', q_locked, full.nq).copy()
+    def _limits(self, model, joints):
+        iv = self._map.iv
+        self._effort = _limit(model.effortLimit[iv])
+        self._velocity = _limit(model.velocityLimit[iv])
+        lower, upper = np.full(len(joints), -np.inf), np.full(len(joints), np.inf)
+        for k, name in enumerate(joints):
+            jm = model.joints[model.getJointId(name)]
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            if not _is_continuous(jm) and lo < hi:
+                lower[k], upper[k] = lo, hi
+        self._lower, self._upper = lower, upper
 
     # -- limits ------------------------------------------------------------------------------
     @property
@@ -158,136 +190,214 @@ class UrdfModel(RobotModel):
 
     @property
     def position_limits(self):
-        """(lower, upper) URDF position limits per joint, rad or m, each (n,)."""
+        """(lower, upper) URDF position limits per joint, rad or m, each (n,).
+
+        -inf, inf for continuous joints and where the URDF sets no range: lower >= upper, which is
+        PyBullet's "no limit" (lower > upper) or a <limit> without lower and upper (read as 0, 0)."""
         return self._lower.copy(), self._upper.copy()
 
-    # -- helpers -----------------------------------------------------------------------------
-    def _set_q(self, q):
-        return self._pin_q(validation.vector('q', q, self.n))
-
-    def _set_v(self, qd, name='qd'):
-        return self._pin_v(validation.vector(name, qd, self.n))
-
-    def _set_a(self, qdd, name='qdd'):
-        return self._pin_v(validation.vector(name, qdd, self.n), self._a)
-
-    # checked arrays (n,) -> Pinocchio's configuration / velocity vectors
-    def _pin_q(self, q):
-        if self._in_order:
-            return q
-        self._q[self._iq] = q
-        return self._q
-
-    def _pin_v(self, qd, out=None):
-        if self._in_order:
-            return qd
-        out = self._v if out is None else out
-        out[self._iv] = qd
-        return out
-
-    def _joint_order(self, a):
-        """A (nv,) Pinocchio vector (a new array) in joint order."""
-        return a if self._in_order else a[self._iv]
-
-    def _require_tip(self):
-        if self.frame_id is None:
-            raise NotImplementedError('UrdfModel has no task space: construct it with tip=<frame name>')
-
-    # -- joint space -------------------------------------------------------------------------
-    def M(self, q):
-        """Mass matrix (CRBA, symmetrized from its upper triangle), (n, n)."""
-        m = pin.crba(self.model, self._data, self._set_q(q))   # a new array; upper triangle valid
+    # -- the equations (RobotModel): one Pinocchio call each ------------------------------------
+    def _M(self, q):
+        """CRBA, symmetrized from its upper triangle."""
+        m = pin.crba(self.model, self._data, self._map.q(q))   # a new array; upper triangle valid
         np.copyto(m, m.T, where=self._lower_mask)
-        return m if self._in_order else m[self._ix]
+        return self._map.matrix(m)
 
-    def C(self, q, qd):
-        """Coriolis matrix (Pinocchio's, with Mdot - 2C skew), (n, n)."""
-        return pin.computeCoriolisMatrix(self.model, self._data, self._set_q(q), self._set_v(qd))[self._ix]
+    def _C(self, q, qd):
+        """Pinocchio's Coriolis matrix (Mdot - 2C skew)."""
+        return self._map.matrix(pin.computeCoriolisMatrix(self.model, self._data, self._map.q(q),
+                                                          self._map.v(qd)).copy())
 
-    def C_qd(self, q, qd):
-        """C(q, qd) qd = rnea(q, qd, 0) - g(q), (n,)."""
-        qp, vp = self._set_q(q), self._set_v(qd)
-        h = pin.rnea(self.model, self._data, qp, vp, self._zero)[self._iv]
-        return h - pin.computeGeneralizedGravity(self.model, self._data, qp)[self._iv]
+    def _C_qd(self, q, qd):
+        """C(q, qd) qd = rnea(q, qd, 0) - g(q)."""
+        pq, pv = self._map.q(q), self._map.v(qd)
+        h = pin.rnea(self.model, self._data, pq, pv, self._zero).copy()
+        return self._map.joint_order(h - pin.computeGeneralizedGravity(self.model, self._data, pq))
 
-    def g(self, q):
-        """Gravity torque g(q), (n,)."""
-        return pin.computeGeneralizedGravity(self.model, self._data, self._set_q(q))[self._iv].copy()
+    def _g(self, q):
+        return self._map.joint_order(pin.computeGeneralizedGravity(self.model, self._data, self._map.q(q)).copy())
 
-    def inverse_dynamics(self, q, qd, qdd):
-        """tau = M qdd + C qd + g by RNEA, (n,)."""
-        return self._joint_order(pin.rnea(self.model, self._data, self._set_q(q), self._set_v(qd), self._set_a(qdd)))
-
-    def forward_dynamics(self, q, qd, tau):
-        """qdd = M^-1 (tau - C qd - g) by ABA, (n,)."""
-        qdd = pin.aba(self.model, self._data, self._set_q(q), self._set_v(qd), self._set_a(tau, 'tau'))
-        return qdd[self._iv].copy()
-
-    # -- task space --------------------------------------------------------------------------
-    def fk(self, q):
-        """World position of the tip frame's origin, m, (3,)."""
-        self._require_tip()
-        pin.forwardKinematics(self.model, self._data, self._set_q(q))
-        return pin.updateFramePlacement(self.model, self._data, self.frame_id).translation.copy()
-
-    def J(self, q):
-        """Linear Jacobian of the tip point, world axes (LOCAL_WORLD_ALIGNED), (3, n)."""
-        self._require_tip()
-        jac = pin.computeFrameJacobian(self.model, self._data, self._set_q(q), self.frame_id,
-                                       pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        return jac.reshape(6, self.model.nv)[:3, self._iv]   # eigenpy returns (6,) when nv == 1
-
-    def Jdot_qd(self, q, qd):
-        """Jdot qd of the tip point: its classical acceleration at qdd = 0, world axes, (3,)."""
-        self._require_tip()
-        pin.forwardKinematics(self.model, self._data, self._set_q(q), self._set_v(qd), self._zero)
-        acc = pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id,
-                                                pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        return acc.linear.copy()
-
-    # -- the laws' fast path (RobotModel): arguments already checked ------------------------------
     def _inverse_dynamics(self, q, qd, qdd):
-        """RNEA, one Pinocchio call; a new (n,) array."""
-        return self._joint_order(pin.rnea(self.model, self._data, self._pin_q(q), self._pin_v(qd),
-                                          self._pin_v(qdd, self._a)))
+        """M qdd + C qd + g by RNEA: the same terms in one recursive pass."""
+        jm = self._map
+        return jm.joint_order(pin.rnea(self.model, self._data, jm.q(q), jm.v(qd), jm.v(qdd, self._a)).copy())
+
+    def _forward_dynamics(self, q, qd, tau):
+        """M^-1 (tau - C qd - g) by ABA."""
+        jm = self._map
+        return jm.joint_order(pin.aba(self.model, self._data, jm.q(q), jm.v(qd), jm.v(tau, self._a)).copy())
+
+    def _Minv(self, q):
+        """M^-1 by CRBA and Pinocchio's sparse Cholesky factorisation."""
+        model, data = self.model, self._data
+        pin.crba(model, data, self._map.q(q))
+        pin.cholesky.decompose(model, data)
+        return self._map.matrix(pin.cholesky.computeMinv(model, data))
+
+    def _fk(self, q):
+        """The tip frame's origin, m, (3,); with the pose task space also log3(R), rad: (6,)."""
+        pin.forwardKinematics(self.model, self._data, self._map.q(q))
+        return self._pose(pin.updateFramePlacement(self.model, self._data, self.frame_id))
+
+    def _J(self, q):
+        """Jacobian of the tip frame in world axes (LOCAL_WORLD_ALIGNED): linear rows, then (pose) angular, (m, n)."""
+        jac = pin.computeFrameJacobian(self.model, self._data, self._map.q(q), self.frame_id, LWA)
+        return self._columns(jac.reshape(6, self.model.nv)[self._rows])   # eigenpy returns (6,) when nv == 1
+
+    def _Jdot_qd(self, q, qd):
+        """The tip frame's classical acceleration at qdd = 0 (linear, then angular), world axes, (m,)."""
+        pin.forwardKinematics(self.model, self._data, self._map.q(q), self._map.v(qd), self._zero)
+        return self._motion(pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id, LWA))
 
     def _task(self, q, qd):
-        """(x, J, Jdot_qd) from one kinematics pass, cached for the last (q, qd) (read-only arrays)."""
-        key = (q.tobytes(), qd.tobytes())
-        if key == self._task_key:
-            return self._task_out
-        self._require_tip()
+        """(x, J, Jdot qd) from one kinematics pass at (q, qd, qdd = 0)."""
         model, data, fid = self.model, self._data, self.frame_id
-        pq = self._pin_q(q)
-        pin.forwardKinematics(model, data, pq, self._pin_v(qd), self._zero)   # qdd = 0: the bias Jdot qd
-        x = pin.updateFramePlacement(model, data, fid).translation.copy()
-        jdot_qd = pin.getFrameClassicalAcceleration(model, data, fid, LWA).linear.copy()
+        pin.forwardKinematics(model, data, self._map.q(q), self._map.v(qd), self._zero)
+        x = self._pose(pin.updateFramePlacement(model, data, fid))
+        jdot_qd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         pin.computeJointJacobians(model, data)                                # placements computed above
-        jac = pin.getFrameJacobian(model, data, fid, LWA).reshape(6, model.nv)[:3]
-        jac = jac if self._in_order else jac[:, self._iv]
-        for a in (x, jac, jdot_qd):
-            a.flags.writeable = False
-        self._task_out = (x, jac, jdot_qd)
-        self._task_key = key
-        return self._task_out
+        jac = self._columns(pin.getFrameJacobian(model, data, fid, LWA).reshape(6, model.nv)[self._rows])
+        return x, jac, jdot_qd
 
     def _task_motion(self, q, qd, qdd):
         """(x, J qd, J qdd + Jdot qd) of the tip from one second-order kinematics pass."""
-        self._require_tip()
         model, data, fid = self.model, self._data, self.frame_id
-        pin.forwardKinematics(model, data, self._pin_q(q), self._pin_v(qd), self._pin_v(qdd, self._a))
-        x = pin.updateFramePlacement(model, data, fid).translation.copy()
-        xd = pin.getFrameVelocity(model, data, fid, LWA).linear.copy()
-        xdd = pin.getFrameClassicalAcceleration(model, data, fid, LWA).linear.copy()
+        pin.forwardKinematics(model, data, self._map.q(q), self._map.v(qd), self._map.v(qdd, self._a))
+        x = self._pose(pin.updateFramePlacement(model, data, fid))
+        xd = self._motion(pin.getFrameVelocity(model, data, fid, LWA))
+        xdd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         return x, xd, xdd
 
-    def _Minv(self, q):
-        """M^-1 by CRBA and Pinocchio's sparse Cholesky, (n, n)."""
-        model, data = self.model, self._data
-        pin.crba(model, data, self._pin_q(q))
-        pin.cholesky.decompose(model, data)
-        minv = pin.cholesky.computeMinv(model, data)
-        return minv if self._in_order else minv[self._ix]
+    def _task_difference(self, x_d, x):
+        """x_d - x on the position axes; log3(R_d R^T) on the orientation axes (world axes, rad)."""
+        if self.task_space == 'position':
+            return x_d - x
+        rotation = pin.log3(pin.exp3(x_d[3:]) @ pin.exp3(x[3:]).T)
+        return np.concatenate([x_d[:3] - x[:3], rotation])
+
+    @property
+    def base_frame(self):
+        """The URDF's root link: the frame of fk and of pose targets."""
+        return self.model.frames[1].name
+
+    def task_position(self, position, quaternion):
+        """[position, log3(R(quaternion))] with the pose task space, else the position (3,)."""
+        self._check_task()
+        position = validation.vector('position', position, 3)
+        if self.task_space == 'position':
+            return position.copy()
+        x, y, z, w = validation.vector('quaternion', quaternion, 4)
+        return np.concatenate([position, pin.log3(pin.Quaternion(w, x, y, z).normalized().toRotationMatrix())])
+
+    def task_pose(self, x):
+        """(position, quaternion (x, y, z, w)) of a task position."""
+        self._check_task()
+        x = validation.vector('x', x, self.task_dim)
+        if self.task_space == 'position':
+            return x.copy(), np.array([0.0, 0.0, 0.0, 1.0])
+        return x[:3].copy(), pin.Quaternion(pin.exp3(x[3:])).coeffs().copy()
+
+    def _pose(self, placement):
+        """The task position of a frame placement: origin (3,), then (pose) log3 of its rotation (3,)."""
+        if self.task_space == 'position':
+            return placement.translation.copy()
+        return np.concatenate([placement.translation, pin.log3(placement.rotation)])
+
+    def _motion(self, motion):
+        """A frame's velocity or acceleration in the task space: linear (3,), then (pose) angular (3,)."""
+        if self.task_space == 'position':
+            return motion.linear.copy()
+        return np.concatenate([motion.linear, motion.angular])
+
+    def _columns(self, jac):
+        """Columns of a (k, nv) Jacobian in joint order, (k, n) (a new array)."""
+        return jac.copy() if self._map.identity else jac[:, self._map.iv]
 
     def __repr__(self):
-        return f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r})'
+        return (f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r}, '
+                f'task_space={self.task_space!r})')
+
+
+def _limit(values):
+    """URDF limits as an array; 0 (unset) or non-finite means no limit (inf)."""
+    out = np.array(values, dtype=float)
+    out[~(np.isfinite(out) & (out > 0.0))] = np.inf
+    return out
+
+
+def _selected(full, movable, joints):
+    """The selected joint names, checked: known, unique, each 1-DOF (revolute, prismatic, continuous)."""
+    if not movable:
+        raise ArgumentError('joints', 'the URDF has no movable joint: all its joints are fixed')
+    if isinstance(joints, str):
+        joints = (joints,)
+    if joints is None:
+        joints = movable
+    try:
+        joints = validation.names('joints', joints)
+    except TypeError:
+        raise ArgumentError('joints', f'expected a sequence of joint names, got {joints!r}') from None
+    unknown = [j for j in joints if j not in movable]
+    if unknown:
+        raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+    if not joints:
+        raise ArgumentError('joints', 'expected at least one joint')
+    for name in joints:
+        jm = full.joints[full.getJointId(name)]
+        if jm.nv != 1 or not (jm.nq == 1 or _is_continuous(jm)):
+            raise ArgumentError('joints', f'{name!r} is a {jm.shortname()} (nq={jm.nq}, nv={jm.nv}); only '
+                                          '1-DOF joints (revolute, prismatic, continuous) can be selected')
+    return joints
+
+
+def _reference(full, movable, joints, q_locked):
+    """Pinocchio configuration of the full model that locks the other joints at q_locked."""
+    q_ref = pin.neutral(full)
+    if q_locked is None:
+        return q_ref
+    if not isinstance(q_locked, Mapping):
+        q_ref = validation.vector('q_locked', q_locked, full.nq).copy()
+        if not pin.isNormalized(full, q_ref, 1e-9):
+            raise ArgumentError('q_locked', "a full configuration holds a unit (cos, sin) pair per continuous "
+                                            'joint and unit quaternions; pinocchio.normalize(model, q) makes them so')
+        return q_ref
+    for name, value in q_locked.items():
+        if name not in movable:
+            raise ArgumentError('q_locked', f'unknown joint {name!r}; the URDF\'s movable joints are {list(movable)}')
+        if name in joints:
+            raise ArgumentError('q_locked', f'{name!r} is one of the selected joints, it cannot be locked')
+        x = validation.scalar(f'q_locked[{name!r}]', value)
+        jm = full.joints[full.getJointId(name)]
+        if jm.nq == 1:
+            q_ref[jm.idx_q] = x
+        elif _is_continuous(jm):
+            q_ref[jm.idx_q:jm.idx_q + 2] = (np.cos(x), np.sin(x))
+        else:
+            raise ArgumentError('q_locked', f'{name!r} is a {jm.shortname()}; give a full configuration instead')
+    return q_ref
+
+
+def _reduced(full, locked, q_ref):
+    """The model with the joints named `locked` fixed at q_ref (pin.buildReducedModel); ArgumentError
+    naming `joints` (the selection decides what is locked) when Pinocchio cannot build it."""
+    if not locked:
+        return full
+    try:
+        return pin.buildReducedModel(full, [full.getJointId(name) for name in locked], q_ref)
+    except (ValueError, RuntimeError) as exc:
+        raise ArgumentError('joints', f'Pinocchio cannot lock the unselected joints {locked}: {exc}; '
+                                      'select them too') from None
+
+
+def _frame(model, tip):
+    """Frame id of link `tip` (a body frame, else any frame of that name); ArgumentError naming tip."""
+    links = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
+    if not isinstance(tip, str) or not model.existFrame(tip):
+        raise ArgumentError('tip', f'unknown frame {tip!r}; the URDF\'s links are {links}')
+    try:
+        if model.existFrame(tip, pin.FrameType.BODY):    # a link, rather than a joint of that name
+            return model.getFrameId(tip, pin.FrameType.BODY)
+        return model.getFrameId(tip)
+    except (ValueError, RuntimeError) as exc:            # e.g. several frames match the name
+        raise ArgumentError('tip', f'frame {tip!r} is ambiguous in this URDF ({exc}); the links are {links}') \
+            from None

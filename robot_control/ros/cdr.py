@@ -19,7 +19,7 @@ past the data. A typed publish puts only the data on the wire, and so does the e
 such as rosbags insist on the exact size). rclpy leaves all padding unwritten, i.e. heap
 garbage; the encoder writes zeros there. The decoder ignores padding and trailing bytes.
 
-No rclpy here (library layer): the caller falls back to ``rclpy.serialization`` when
+No rclpy here: the caller falls back to ``rclpy.serialization`` when
 `JointStateDecoder.decode` returns None.
 """
 import operator
@@ -27,7 +27,8 @@ import struct
 
 import numpy as np
 
-from robot_control.units import NS_PER_S  # noqa: E402  (kept beside the layout constants)
+from robot_control.units import NS_PER_S
+
 INT32_MAX = 2 ** 31 - 1
 _MAX_STAMP_NS = (INT32_MAX + 1) * NS_PER_S - 1     # the last stamp whose seconds fit in int32
 FIELDS = ('position', 'velocity', 'effort')

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -45,7 +45,8 @@ def _plausible(a):
     """True when every entry of the float array `a` is finite and |a_i| <= MAX_ABS."""
     values = a.tolist()
     return not values or (max(values) <= MAX_ABS and min(values) >= -MAX_ABS)
-WRENCH_AXES = ('x', 'y', 'z')
+#: the six components of a wrench (force, then torque) and of a pose (position, then rotation vector)
+WRENCH_AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')
 
 
 # -- time --------------------------------------------------------------------------------------
@@ -195,75 +196,95 @@ def effort_array_values(msg):
 
 # -- trajectories ------------------------------------------------------------------------------
 class TrajectoryGoal:
-    """A validated JointTrajectory in controller order: all arrays float64, times in s.
+    """A checked JointTrajectory in controller order: float64 arrays, times in s.
 
-    stamp_ns: header.stamp (0 = start when received); times (k,) time_from_start, strictly
-    increasing and > 0; positions (k, n); velocities, accelerations (k, n) or None.
+    stamp_ns: header.stamp (0 = start when received); times (k,) time_from_start, increasing, the
+    first >= 0 (k = 0: an empty trajectory, which cancels the motion); positions (k, n), NaN in the
+    columns of joints the message leaves out (allow_partial_joints_goal); velocities, accelerations
+    (k, n) or None; given (n,) bool, the joints the message names.
     """
 
-    __slots__ = ('stamp_ns', 'times', 'positions', 'velocities', 'accelerations')
+    __slots__ = ('stamp_ns', 'times', 'positions', 'velocities', 'accelerations', 'given')
 
-    def __init__(self, stamp_ns, times, positions, velocities=None, accelerations=None):
+    def __init__(self, stamp_ns, times, positions, velocities=None, accelerations=None, given=None):
         self.stamp_ns = stamp_ns
         self.times = times
         self.positions = positions
         self.velocities = velocities
         self.accelerations = accelerations
+        self.given = np.ones(positions.shape[1], dtype=bool) if given is None else given
+
+    @property
+    def empty(self):
+        return self.times.shape[0] == 0
 
 
-def _point_field(points, field, n, order, required):
-    """(k, n) array of `field` from every point (reordered to the controller's joints), or None."""
+def _point_field(points, field, n, columns, required):
+    """(k, n) array of `field` from every point, in the controller's joint order (NaN in the columns of
+    joints the message does not name), or None when no point gives the field."""
+    names = len(columns)
     sizes = {len(getattr(p, field)) for p in points}
     if sizes == {0} and not required:
         return None
-    if sizes != {n}:
+    if sizes != {names}:
         for i, p in enumerate(points):
-            if len(getattr(p, field)) != n:
+            if len(getattr(p, field)) != names:
                 what = 'one entry per joint name' if required else 'none, or one entry per joint name in every point'
-                raise ArgumentError(f'points[{i}].{field}', f'expected {what} ({n}), got {len(getattr(p, field))}')
-    out = np.empty((len(points), n))
+                raise ArgumentError(f'points[{i}].{field}', f'expected {what} ({names}), got {len(getattr(p, field))}')
+    out = np.full((len(points), n), np.nan)
     for i, p in enumerate(points):
         row = np.asarray(getattr(p, field), dtype=float)
         if not np.isfinite(row).all():
             raise ArgumentError(f'points[{i}].{field}', f'not finite {row.tolist()}')
         if not _plausible(row):
             raise ArgumentError(f'points[{i}].{field}', f'implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
-        out[i] = row[order]
+        out[i, columns] = row
     return out
 
 
-def trajectory_goal(msg, joints):
-    """Validate a trajectory_msgs/JointTrajectory against `joints` -> TrajectoryGoal (joints order).
+def _times(points):
+    """time_from_start of every point, s: the first >= 0, each later one after the one before."""
+    times = np.array([duration_to_s(p.time_from_start) for p in points])
+    if times.size and times[0] < 0.0:
+        raise ArgumentError('points[0].time_from_start', f'expected >= 0 s, got {times[0]:g} s')
+    steps = np.diff(times)
+    if np.any(steps <= 0.0):
+        i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+        raise ArgumentError(f'points[{i}].time_from_start', f'not after points[{i - 1}] '
+                                                            f'({times[i]:g} s <= {times[i - 1]:g} s)')
+    return times
 
-    Like joint_trajectory_controller: names in any order but exactly the controlled set, at
-    least one point, time_from_start strictly increasing and > 0, finite values; velocities and
-    accelerations either absent from every point or given for every joint in every point.
+
+def trajectory_goal(msg, joints, allow_partial=False):
+    """Check a trajectory_msgs/JointTrajectory against `joints` -> TrajectoryGoal (joints order).
+
+    Like joint_trajectory_controller: names in any order, no unknown or duplicate name, every
+    controlled joint named unless allow_partial (the others then hold); time_from_start increasing,
+    the first point may be at 0 s (a planner's current state); finite values; velocities and
+    accelerations either absent from every point or given for every named joint in every point.
+    No points: an empty trajectory (cancel the motion, hold the current position).
     """
     joints = tuple(joints)
     names = list(msg.joint_names)
     if len(set(names)) != len(names):
         raise ArgumentError('joint_names', f'duplicate names in {names}')
-    if set(names) != set(joints):
-        unknown = sorted(set(names) - set(joints))
-        missing = sorted(set(joints) - set(names))
-        raise ArgumentError('joint_names', f'unknown {unknown}, missing {missing} (controlled joints {list(joints)})')
+    unknown = sorted(set(names) - set(joints))
+    missing = sorted(set(joints) - set(names))
+    if unknown or (missing and not allow_partial):
+        raise ArgumentError('joint_names', f'unknown {unknown}, missing {missing} (controlled joints {list(joints)}'
+                                           f'{"" if allow_partial else "; allow_partial_joints_goal is false"})')
     points = msg.points
-    if not points:
-        raise ArgumentError('points', 'empty trajectory')
     n = len(joints)
-    order = np.array([names.index(j) for j in joints], dtype=np.intp)
-    times = np.array([duration_to_s(p.time_from_start) for p in points])
-    if not times[0] > 0.0:
-        raise ArgumentError('points[0].time_from_start', f'expected > 0 s, got {times[0]:g} s')
-    steps = np.diff(times)
-    if np.any(steps <= 0.0):
-        i = int(np.flatnonzero(steps <= 0.0)[0]) + 1
-        raise ArgumentError(f'points[{i}].time_from_start', f'not after points[{i - 1}] '
-                         f'({times[i]:g} s <= {times[i - 1]:g} s)')
-    positions = _point_field(points, 'positions', n, order, required=True)
-    velocities = _point_field(points, 'velocities', n, order, required=False)
-    accelerations = _point_field(points, 'accelerations', n, order, required=False)
-    return TrajectoryGoal(stamp_to_ns(msg.header.stamp), times, positions, velocities, accelerations)
+    columns = np.array([joints.index(name) for name in names], dtype=np.intp)
+    given = np.zeros(n, dtype=bool)
+    given[columns] = True
+    times = _times(points)
+    positions = _point_field(points, 'positions', n, columns, required=True) if points else np.zeros((0, n))
+    velocities = _point_field(points, 'velocities', n, columns, required=False) if points else None
+    accelerations = _point_field(points, 'accelerations', n, columns, required=False) if points else None
+    if accelerations is not None and velocities is None:
+        raise ArgumentError('points[0].accelerations', 'given without velocities')
+    return TrajectoryGoal(stamp_to_ns(msg.header.stamp), times, positions, velocities, accelerations, given)
 
 
 def joint_trajectory(joints, times, positions, velocities=None, accelerations=None, stamp_ns=0):
@@ -288,25 +309,33 @@ def joint_trajectory(joints, times, positions, velocities=None, accelerations=No
 
 # -- wrenches ----------------------------------------------------------------------------------
 def _axis_indices(axes):
+    """Index of each task axis in a wrench's six components (force x, y, z, then torque rx, ry, rz)."""
     try:
         return [WRENCH_AXES.index(a) for a in axes]
     except ValueError:
         raise ArgumentError('axes', f'task axes {list(axes)} must be named from {list(WRENCH_AXES)} '
-                         'to be read from a wrench') from None
+                                    'to be read from a wrench') from None
+
+
+def _six(msg):
+    f, t = msg.wrench.force, msg.wrench.torque
+    return (f.x, f.y, f.z, t.x, t.y, t.z)
 
 
 def wrench_force(msg, axes, out=None):
-    """Force components of a geometry_msgs/WrenchStamped along task `axes` (names 'x'|'y'|'z'), N."""
+    """The components of a geometry_msgs/WrenchStamped along task `axes`: force on 'x'|'y'|'z' (N), torque
+    on 'rx'|'ry'|'rz' (N m); ArgumentError naming wrench.force or wrench.torque."""
     idx = _axis_indices(axes)
-    f = msg.wrench.force
-    xyz = (f.x, f.y, f.z)
+    six = _six(msg)
     out = np.empty(len(idx)) if out is None else out
     for k, i in enumerate(idx):
-        out[k] = xyz[i]
-    if not np.isfinite(out).all():
-        raise ArgumentError('wrench.force', f'not finite {list(xyz)}')
-    if not _plausible(out):
-        raise ArgumentError('wrench.force', f'implausible magnitude (> {MAX_ABS:g} N) {list(xyz)}')
+        out[k] = six[i]
+    for part, lo, unit in (('wrench.force', 0, 'N'), ('wrench.torque', 3, 'N m')):
+        mine = [k for k, i in enumerate(idx) if lo <= i < lo + 3]
+        if not np.isfinite(out[mine]).all():
+            raise ArgumentError(part, f'not finite {list(six[lo:lo + 3])}')
+        if not _plausible(out[mine]):
+            raise ArgumentError(part, f'implausible magnitude (> {MAX_ABS:g} {unit}) {list(six[lo:lo + 3])}')
     return out
 
 
@@ -323,12 +352,49 @@ def wrench_stamped(force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), stamp_ns=0, fr
 
 
 def wrench_along(axes, values, stamp_ns=0, frame_id=''):
-    """WrenchStamped whose force has `values` on task `axes` ('x'|'y'|'z') and 0 elsewhere."""
+    """WrenchStamped with `values` on task `axes` (force 'x'|'y'|'z', torque 'rx'|'ry'|'rz'), 0 elsewhere."""
     values = validation.vector('values', values, len(axes))
-    force = [0.0, 0.0, 0.0]
+    six = [0.0] * 6
     for i, v in zip(_axis_indices(axes), values):
-        force[i] = float(v)
-    return wrench_stamped(force, stamp_ns=stamp_ns, frame_id=frame_id)
+        six[i] = float(v)
+    return wrench_stamped(six[:3], six[3:], stamp_ns=stamp_ns, frame_id=frame_id)
+
+
+# -- poses -----------------------------------------------------------------------------------------
+#: a quaternion's norm outside this range is not a rotation given with rounding: refused
+QUATERNION_NORM = (0.5, 2.0)
+
+
+def pose_target(msg, base_frame):
+    """geometry_msgs/PoseStamped in the model's base frame -> (position (3,) m, unit quaternion (4,) x, y,
+    z, w); the model turns them into its task position (RobotModel.task_position).
+
+    header.frame_id '' or `base_frame`; a quaternion of norm in QUATERNION_NORM is normalised, any
+    other is refused; finite, plausible values. ArgumentError naming the field."""
+    frame = msg.header.frame_id
+    if frame not in ('', base_frame):
+        raise ArgumentError('header.frame_id', f"expected the model's base frame {base_frame!r} (or ''), "
+                                               f'got {frame!r}')
+    p, o = msg.pose.position, msg.pose.orientation
+    position = np.array([p.x, p.y, p.z])
+    if not (np.isfinite(position).all() and _plausible(position)):
+        raise ArgumentError('pose.position', f'expected finite values within {MAX_ABS:g} m, got {position.tolist()}')
+    quat = np.array([o.x, o.y, o.z, o.w])
+    norm = float(np.linalg.norm(quat)) if np.isfinite(quat).all() else float('nan')
+    if not QUATERNION_NORM[0] <= norm <= QUATERNION_NORM[1]:
+        raise ArgumentError('pose.orientation', f'not a rotation: quaternion {quat.tolist()} of norm {norm:g}')
+    return position, quat / norm
+
+
+def pose_stamped(position, quaternion=(0.0, 0.0, 0.0, 1.0), stamp_ns=0, frame_id=''):
+    """geometry_msgs/PoseStamped of a position (3,) m and a quaternion (x, y, z, w)."""
+    msg = PoseStamped()
+    ns_to_stamp(stamp_ns, msg.header.stamp)
+    msg.header.frame_id = frame_id
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = (float(v) for v in position)
+    o.x, o.y, o.z, o.w = (float(v) for v in quaternion)
+    return msg
 
 
 # -- diagnostics -------------------------------------------------------------------------------

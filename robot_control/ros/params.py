@@ -1,418 +1,282 @@
-"""Controller parameters: declarations (type, description with units, bounds) and validation.
+"""The controller node's parameter table (robot_control.ros.param_table), free of rclpy.
 
-Node layer (uses rclpy). `ControllerParameters(node)` declares every parameter once, reads the
-start-up values (YAML/--ros-args overrides), and builds the controller's `ControllerConfig`;
-`validate(changes)` builds the would-be configuration for a set of changes without touching
-anything (the node's on-set callback), `commit()` makes it current (the post-set callback).
-Every failure is a ParameterError whose message starts with the parameter's name, e.g.
-"zeta: 0.5 breaks the rule zeta >= 1 (...)".
+Three stages: `scenario` (read-only) fills the defaults of everything else from
+robot_control.scenarios (model, model_params.*, joints, urdf, tip, force_axes, k_e, x_e);
+`model` (read-only) chooses the model_params.* rows; then every other parameter. Anything set
+explicitly wins over a scenario default.
 
 Model parameters use a flat dotted scheme that YAML nests naturally:
     model_params.m: 2.0          ->   model_params: {m: 2.0}
 one double per argument of the closed-form model class (robot_control.models.closed_form),
 e.g. polar_two_link: m (kg), gravity (m/s^2); for model 'urdf': gravity (m/s^2, along -z).
-
-`scenario` (read-only) fills the defaults of model, model_params.*, joints, urdf, tip, force_axes,
-k_e and x_e from robot_control.scenarios; anything set explicitly wins.
-
-Typing: parameters are statically typed (YAML doubles carry .0). For convenience at run time a
-pre-set callback (`coerce`) turns integers into doubles and any empty list into the parameter's
-empty array type, so `ros2 param set /controller kp "[]"` (back to designed gains) and
-`ros2 param set /controller omega_res 10` work.
+The values become a ControllerConfig in robot_control.ros.controller_config.
 """
-import dataclasses
+import functools
 import inspect
 import math
 
-import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-from rclpy.parameter import Parameter
+from robot_control import scenarios, units
+from robot_control import urdf as urdf_files
+from robot_control.core.config import FORCE_FEEDBACK
+from robot_control.laws import LAWS
+from robot_control.models import CLOSED_FORM
+from robot_control.ros.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, one_of, size,  # noqa: F401
+                                           subset_of, unique)
 
-from robot_control import gains as gain_design
-from robot_control import scenarios, units, validation
-from robot_control.core.controller import FORCE_FEEDBACK, JOINT_LAWS, LAWS, ControllerConfig
-from robot_control.gains import ServoGains
-from robot_control.validation import ArgumentError
-from robot_control.models import CLOSED_FORM, make_model
-
-T = Parameter.Type
-
-
-class ParameterError(ArgumentError):
-    """An invalid parameter value: `name` is the parameter; str() is '<name>: <reason>'."""
-
-    def __init__(self, name, reason):
-        if isinstance(reason, ArgumentError):
-            reason = reason.reason if reason.name == name else str(reason)
-        super().__init__(name, reason)
+#: units of the closed-form models' arguments (model_params.* descriptions)
+UNITS = {'m': 'kg', 'm1': 'kg', 'm2': 'kg', 'm3': 'kg', 'l': 'm', 'l1': 'm', 'l2': 'm',
+         'b': 'N s/m (viscous friction)', 'k': 'N/m^3 (cubic spring)', 'gravity': 'm/s^2'}
+#: model arguments that may be zero (no friction, no spring, no gravity); the others must be positive
+MAY_BE_ZERO = ('b', 'k', 'gravity')
+DEFAULT_MODEL = 'polar_two_link'
 
 
-@dataclasses.dataclass(frozen=True)
-class Spec:
-    """One parameter: name, type, default, description (with units), bounds text, read-only."""
-
-    name: str
-    type: T
-    default: object
-    description: str
-    bounds: str = ''
-    read_only: bool = False
-
-    def descriptor(self):
-        return ParameterDescriptor(name=self.name, type=self.type.value, description=self.description,
-                                   additional_constraints=self.bounds, read_only=self.read_only)
-
-
-def scenario_spec():
-    """The `scenario` parameter: a name that fills the defaults of everything else."""
-    return Spec('scenario', T.STRING, '',
-                'scenario name filling the defaults of the model, joints and surface '
-                '(robot_control.scenarios); empty = none',
-                ' | '.join(["''"] + sorted(scenarios.SCENARIOS)), True)
-
-
-def model_spec(default):
-    """The `model` parameter: closed-form model name or 'urdf'."""
-    return Spec('model', T.STRING, default, "closed-form model name or 'urdf'",
-                ' | '.join(sorted(CLOSED_FORM) + ['urdf']), True)
-
-
-def _scenario_defaults(name):
-    """Defaults implied by scenario `name` ('' = none)."""
+@functools.lru_cache(maxsize=None)
+def scenario_defaults(name):
+    """Defaults implied by scenario `name` ('' = none): {parameter or 'model_params': value}."""
     if not name:
         return {}
     sc = scenarios.get(name)
     task_axes = ('x', 'y', 'z') if sc.model == 'urdf' else CLOSED_FORM[sc.model].task_axes
     force_axes = tuple(task_axes[i] for i in sc.force_axes)
     out = {'model': sc.model, 'joints': tuple(sc.joints), 'urdf': sc.urdf, 'tip': sc.tip,
-           'force_axes': force_axes, 'model_params': dict(sc.params), 'q_nominal': tuple(sc.q0)}
+           'force_axes': force_axes, 'model_params': dict(sc.params)}
     if sc.surface is not None and force_axes:
-        k = len(force_axes)
-        out['k_e'] = (sc.surface.k_e,) * k
-        out['x_e'] = (sc.surface.x_e,) * k
+        out['k_e'] = (sc.surface.k_e,) * len(force_axes)
+        out['x_e'] = (sc.surface.x_e,) * len(force_axes)
     return out
 
 
-def model_param_specs(model, defaults=None):
-    """Specs of model_params.* for `model` (closed-form name or 'urdf'), defaults overridden by `defaults`."""
-    defaults = defaults or {}
+def scenario_row():
+    return Row('scenario', 'string', '',
+               'scenario name filling the defaults of the model, joints and surface (robot_control.scenarios); '
+               'empty = none', [one_of([''] + sorted(scenarios.SCENARIOS))], read_only=True)
+
+
+def model_row(values):
+    return Row('model', 'string', scenario_defaults(values['scenario']).get('model', DEFAULT_MODEL),
+               "closed-form model name or 'urdf'", [one_of(sorted(CLOSED_FORM) + ['urdf'])], read_only=True)
+
+
+def model_param_rows(model, defaults):
+    """model_params.* of `model` (closed-form name or 'urdf'), defaults overridden by `defaults`;
+    each row answers to its argument's name (the model's errors name the argument)."""
     if model == 'urdf':
-        g = float(defaults.get('gravity', units.GRAVITY))
-        return [Spec('model_params.gravity', T.DOUBLE, g, 'gravitational acceleration along world -z, m/s^2',
-                     '>= 0')]
-    try:
-        cls = CLOSED_FORM[model]
-    except KeyError:
-        raise ParameterError('model', f"unknown {model!r}; expected 'urdf' or one of {sorted(CLOSED_FORM)}") from None
-    specs = []
-    unit_of = {'m': 'kg', 'm1': 'kg', 'm2': 'kg', 'm3': 'kg', 'l': 'm', 'l1': 'm', 'l2': 'm',
-               'b': 'N s/m (viscous friction)', 'k': 'N/m^3 (cubic spring)', 'gravity': 'm/s^2'}
-    for p in inspect.signature(cls.__init__).parameters.values():
+        return [Row('model_params.gravity', 'double', float(defaults.get('gravity', units.GRAVITY)),
+                    'gravitational acceleration along world -z, m/s^2', [gt_eq(0)], aliases=('gravity',))]
+    rows = []
+    for p in inspect.signature(CLOSED_FORM[model].__init__).parameters.values():
         if p.name == 'self':
             continue
-        value = float(defaults.get(p.name, p.default))
-        specs.append(Spec(f'model_params.{p.name}', T.DOUBLE, value,
-                          f'{model} model parameter {p.name}, {unit_of.get(p.name, "SI")}',
-                          '>= 0' if p.name in ('b', 'k', 'gravity') else '> 0'))
-    return specs
+        rows.append(Row(f'model_params.{p.name}', 'double', float(defaults.get(p.name, p.default)),
+                        f'{model} model parameter {p.name}, {UNITS.get(p.name, "SI")}',
+                        [gt_eq(0) if p.name in MAY_BE_ZERO else gt(0)], aliases=(p.name,)))
+    return rows
 
 
-def specs(defaults):
-    """Every parameter except scenario, model and model_params.*, with `defaults` applied."""
-    d = defaults.get
+def _controller_urdf(value, values):
+    """model 'urdf' reads urdf (unless robot_description holds the XML): it must exist."""
+    if values['model'] == 'urdf' and value and not values['robot_description']:
+        urdf_files.resolve(value)
+
+
+def task_axes_rule(model):
+    """force_axes among the model's task axes: known for a closed form; a URDF model with a tip has x, y, z
+    (task_space position) or x, y, z, rx, ry, rz (pose)."""
+    if model in CLOSED_FORM:
+        return subset_of(CLOSED_FORM[model].task_axes, "the model's task axes")
+    return custom('subset of the task axes (with a tip: x, y, z; task_space pose also rx, ry, rz)')
+
+
+def rows(values):
+    """Every parameter after scenario and model, with the scenario's (or the model's) defaults."""
+    d = dict(scenario_defaults(values['scenario']))
+    model = values['model']
+    if 'joints' not in d and model in CLOSED_FORM:
+        d['joints'] = CLOSED_FORM[model].joint_names
+    get = d.get
+    return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + force_rows(get, model)
+            + motion_rows() + impedance_rows() + node_rows())
+
+
+def robot_rows(get):
+    """The robot: joints, the URDF and its tip, the task space, a payload (defaults `get` from the scenario)."""
     return [
-        Spec('joints', T.STRING_ARRAY, tuple(d('joints', ())),
-             'controlled joint names in model order, matched by name in joint_states; empty = the model\'s '
-             '(a URDF model: all movable joints)', 'unique names; closed form: one per model joint', True),
-        Spec('urdf', T.STRING, d('urdf', ''),
-             "model 'urdf': URDF file path, shipped name (robot_control/urdf) or pybullet_data path", '',
-             True),
-        Spec('robot_description', T.STRING, '',
-             "model 'urdf': URDF XML text (wins over urdf when non-empty)", '', True),
-        Spec('tip', T.STRING, d('tip', ''),
-             "model 'urdf': task frame (link) for fk/J, needed by the force and hybrid laws", '', True),
-        Spec('law', T.STRING, 'computed_torque', 'control law',
-             ' | '.join(LAWS)),
-        Spec('integral', T.BOOL, False, 'integral action (PID): ki used, integral state kept'),
-        Spec('zeta', T.DOUBLE, 1.0, 'designed damping ratio, dimensionless', '>= 1 (no underdamping)'),
-        Spec('omega_res', T.DOUBLE, 12.0, 'lowest structural resonance, rad/s', '> 0'),
-        Spec('omega_n', T.DOUBLE, 0.0, 'designed natural frequency, rad/s; 0 = 0.5 omega_res',
-             '0 or 0 < omega_n <= 0.5 omega_res'),
-        Spec('kp', T.DOUBLE_ARRAY, (),
-             'explicit Kp diagonal (empty = designed): 1/s^2 (computed torque, hybrid motion axes) or '
-             'N m/rad, N/m (independent_joint)', 'empty, or one per joint (hybrid: per task or motion axis); >= 0'),
-        Spec('kv', T.DOUBLE_ARRAY, (), 'explicit Kv diagonal (empty = designed): 1/s or N m s/rad, N s/m',
-             'empty, or as many as kp needs; >= 0'),
-        Spec('ki', T.DOUBLE_ARRAY, (), 'explicit Ki diagonal (empty = designed), used when integral: '
-             '1/s^3 or N m/(rad s), N/(m s)', 'empty, or as many as kp needs; >= 0'),
-        Spec('force_kp', T.DOUBLE_ARRAY, (), 'explicit force servo kp per force axis (empty = designed), 1/s^2',
-             'empty or one per force axis; >= 0'),
-        Spec('force_kv', T.DOUBLE_ARRAY, (), 'explicit force servo kv per force axis (empty = designed), 1/s',
-             'empty or one per force axis; >= 0'),
-        Spec('force_ki', T.DOUBLE_ARRAY, (), 'explicit force servo ki per force axis (empty = designed), 1/s^3',
-             'empty or one per force axis; >= 0'),
-        Spec('integral_limit', T.DOUBLE, math.inf,
-             'clamp of |integral of the error| per entry: rad s, m s (joints/motion) or N s (force)',
-             '> 0, .inf = no clamp'),
-        Spec('effort_limits', T.DOUBLE_ARRAY, (), 'effort limit per joint, N m or N; empty = the model\'s '
-             '(URDF <limit effort>, none for closed forms)', 'empty or one per joint; > 0'),
-        Spec('state_timeout', T.DOUBLE, 0.5, 'watchdog: no joint_states for this long stops commanding, s '
-             '(node clock: sim time when use_sim_time)', '> 0'),
-        Spec('force_axes', T.STRING_ARRAY, tuple(d('force_axes', ())),
-             'force-controlled task axes (names of the model\'s task axes, e.g. x)', 'subset of the task axes'),
-        Spec('k_e', T.DOUBLE_ARRAY, tuple(d('k_e', ())), 'environment stiffness per force axis, N/m',
-             'one per force axis; > 0'),
-        Spec('x_e', T.DOUBLE_ARRAY, tuple(d('x_e', ())), 'environment location per force axis, m',
-             'one per force axis'),
-        Spec('force_feedback', T.STRING, 'sensor',
-             "contact force: 'sensor' (ft_sensor/wrench) or 'model' (f = k_e (x - x_e))", ' | '.join(FORCE_FEEDBACK)),
-        Spec('force_lead_time', T.DOUBLE, 0.0, 'force laws use the force predicted this far ahead, f + fdot T, '
-             's; the control period compensates the command hold (0 = the lecture\'s law)', '>= 0'),
-        Spec('f_d', T.DOUBLE_ARRAY, (), 'desired force per force axis (robot on environment), N; '
-             'empty = 0; changes ramp over force_ramp_time', 'empty or one per force axis'),
-        Spec('force_ramp_time', T.DOUBLE, 0.5, 'duration of a force reference change (quintic), s; 0 = step',
-             '>= 0'),
-        Spec('q_d', T.DOUBLE_ARRAY, (), 'joint set-point, rad or m; empty = hold the start position; '
-             'a change starts a quintic move from the current reference over move_time', 'empty or one per joint'),
-        Spec('move_time', T.DOUBLE, 2.0, 'duration of a q_d move, s', '> 0'),
-        Spec('posture_kp', T.DOUBLE, 25.0, 'null-space posture stiffness (hybrid, redundant arms), 1/s^2', '>= 0'),
-        Spec('posture_kv', T.DOUBLE, 10.0, 'null-space posture damping (hybrid, redundant arms), 1/s', '>= 0'),
-        Spec('contact_max_travel', T.DOUBLE, 0.05,
-             'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
-             'does not explain before the force axis is held in position, m; .inf = off', '> 0'),
-        Spec('contact_max_speed', T.DOUBLE, 0.5,
-             'lost-contact guard (force, hybrid): largest speed along a force axis before it is held in '
-             'position, m/s; .inf = off', '> 0'),
-        Spec('publish_effort_array', T.BOOL, False,
-             'also publish effort_controller/commands (std_msgs/Float64MultiArray, joints order)'),
-        Spec('diagnostics_period', T.DOUBLE, 0.5, 'period of /diagnostics, s (wall clock)', '> 0'),
+        Row('joints', 'string_array', get('joints', ()),
+            "controlled joint names in model order, matched by name in joint_states; empty = the model's "
+            '(a URDF model: all movable joints)', [unique(), custom('closed form: one per model joint')],
+            read_only=True),
+        Row('urdf', 'string', get('urdf', ''),
+            "model 'urdf': URDF file path, shipped name (robot_control/urdf) or pybullet_data path",
+            [custom("model 'urdf': an existing URDF", _controller_urdf)], read_only=True),
+        Row('robot_description', 'string', '', "model 'urdf': URDF XML text (wins over urdf when non-empty)",
+            read_only=True),
+        Row('tip', 'string', get('tip', ''),
+            "model 'urdf': task frame (link) for fk/J, needed by the task-space laws (force, hybrid, impedance)",
+            read_only=True),
+        Row('task_space', 'string', 'position',
+            "model 'urdf': the tip's task space: position (x, y, z, m) or pose (also rx, ry, rz: its orientation "
+            'as a rotation vector, rad; errors on SO(3))', [one_of(('position', 'pose'))], read_only=True),
+        Row('payload.mass', 'double', 0.0, "model 'urdf': mass carried by the tip, kg; 0 = none", [gt_eq(0)],
+            read_only=True, aliases=('payload',)),
+        Row('payload.com', 'double_array', (0.0, 0.0, 0.0), "model 'urdf': the payload's centre of mass in the "
+            'tip frame, m', [size(3, 'coordinate')], read_only=True),
     ]
 
 
-ARRAY_TYPES = (T.BYTE_ARRAY, T.BOOL_ARRAY, T.INTEGER_ARRAY, T.DOUBLE_ARRAY, T.STRING_ARRAY)
+def servo_rows():
+    """The law and its servo gains: designed from zeta, omega_res, omega_n, or explicit; limits."""
+    gains = [custom('empty, or one per joint (hybrid: per task or motion axis)'), gt_eq(0)]
+    per_axis = size('force_axes', 'force axis', empty_ok=True)
+    return [
+        Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
+        Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
+        Row('zeta', 'double', 1.0, 'designed damping ratio, dimensionless',
+            [custom('>= 1 (no underdamping)')]),
+        Row('omega_res', 'double', 12.0, 'lowest structural resonance, rad/s', [gt(0)]),
+        Row('omega_n', 'double', 0.0, 'designed natural frequency, rad/s; 0 = 0.5 omega_res',
+            [gt_eq(0), custom('<= 0.5 omega_res')]),
+        Row('kp', 'double_array', (), 'explicit Kp diagonal (empty = designed): 1/s^2 (computed torque, hybrid '
+            'motion axes) or N m/rad, N/m (independent_joint)', gains),
+        Row('kv', 'double_array', (), 'explicit Kv diagonal (empty = designed): 1/s or N m s/rad, N s/m',
+            [custom('empty, or as many as kp needs'), gt_eq(0)]),
+        Row('ki', 'double_array', (), 'explicit Ki diagonal (empty = designed), used when integral: '
+            '1/s^3 or N m/(rad s), N/(m s)', [custom('empty, or as many as kp needs'), gt_eq(0)]),
+        Row('force_kp', 'double_array', (), 'explicit force servo kp per force axis (empty = designed), 1/s^2',
+            [per_axis, gt_eq(0)]),
+        Row('force_kv', 'double_array', (), 'explicit force servo kv per force axis (empty = designed), 1/s',
+            [per_axis, gt_eq(0)]),
+        Row('force_ki', 'double_array', (), 'explicit force servo ki per force axis (empty = designed), 1/s^3',
+            [per_axis, gt_eq(0)]),
+        Row('integral_limit', 'double', math.inf,
+            'clamp of |integral of the error| per entry: rad s, m s (joints/motion) or N s (force); .inf = no clamp',
+            [gt(0)], inf=True),
+        Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
+            '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
+    ]
 
 
-def _python(spec_type, value):
-    """Parameter value -> the snapshot's Python value (tuples for arrays)."""
-    if spec_type in (T.DOUBLE_ARRAY, T.STRING_ARRAY):
-        return tuple(value or ())
-    return value
+def force_rows(get, model):
+    """The force axes, the environment, the force reference and the lost-contact guard."""
+    per_axis = size('force_axes', 'force axis', empty_ok=True)
+    return [
+        Row('force_axes', 'string_array', get('force_axes', ()),
+            "force-controlled task axes (names of the model's task axes, e.g. x)", [unique(), task_axes_rule(model)]),
+        Row('k_e', 'double_array', get('k_e', ()), 'environment stiffness per force axis, N/m',
+            [size('force_axes', 'force axis'), gt(0)]),
+        Row('x_e', 'double_array', get('x_e', ()), 'environment location per force axis, m',
+            [size('force_axes', 'force axis')]),
+        Row('force_feedback', 'string', 'sensor',
+            "contact force: 'sensor' (ft_sensor/wrench) or 'model' (f = k_e (x - x_e))", [one_of(FORCE_FEEDBACK)]),
+        Row('force_lead_time', 'double', 0.0, 'force laws use the force predicted this far ahead, f + fdot T, '
+            "s; the control period compensates the command hold (0 = the lecture's law)", [gt_eq(0)]),
+        Row('f_d', 'double_array', (), 'desired force per force axis (robot on environment), N; '
+            'empty = 0; changes ramp over force_ramp_time', [per_axis]),
+        Row('force_ramp_time', 'double', 0.5, 'duration of a force reference change (quintic), s; 0 = step',
+            [gt_eq(0)]),
+        Row('contact_max_travel', 'double', 0.05,
+            'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
+            'does not explain before the force axis is held in position, m; .inf = off', [gt(0)], inf=True),
+        Row('contact_max_speed', 'double', 0.5,
+            'lost-contact guard (force, hybrid): largest speed along a force axis before it is held in '
+            'position, m/s; .inf = off', [gt(0)], inf=True),
+    ]
 
 
-class Snapshot:
-    """Parameter values (name -> value) and the ControllerConfig built from them."""
+def motion_rows():
+    """The joint reference: set-point moves, the null-space posture, trajectory goals and tolerances."""
+    return [
+        Row('q_d', 'double_array', (), 'joint set-point, rad or m; empty = hold the start position; '
+            'a change starts a quintic move from the current reference over move_time',
+            [custom('empty or one per joint')]),
+        Row('move_time', 'double', 2.0, 'duration of a q_d move, s', [gt(0)]),
+        Row('posture_kp', 'double', 25.0, 'null-space posture stiffness (hybrid, redundant arms), 1/s^2',
+            [gt_eq(0)]),
+        Row('posture_kv', 'double', 10.0, 'null-space posture damping (hybrid, redundant arms), 1/s', [gt_eq(0)]),
+        Row('allow_partial_joints_goal', 'bool', False,
+            'a trajectory may name some of the joints; the others hold (joint_trajectory_controller)'),
+        Row('constraints.goal_time', 'double', 0.0,
+            'time a trajectory may take past its end to reach its goal tolerances, s; 0 = no limit', [gt_eq(0)]),
+        Row('constraints.stopped_velocity_tolerance', 'double', 0.01,
+            'largest joint speed of a reached goal, rad/s or m/s', [gt_eq(0)]),
 
-    __slots__ = ('values', 'config')
-
-    def __init__(self, values, config):
-        self.values = values
-        self.config = config
+    ]
 
 
-class ControllerParameters:
-    """Declares the controller's parameters on `node` and turns their values into a ControllerConfig.
+def impedance_rows():
+    """The impedance law: stiffness, damping, the bound of the pose error."""
+    return [
+        Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
+            'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
+            [size(6, 'pose axis'), gt_eq(0)]),
+        Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio of the designed damping '
+            'D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
+            [gt_eq(0)]),
+        Row('cartesian_damping', 'double_array', (), 'impedance: explicit damping along x, y, z (N s/m) and '
+            'rx, ry, rz (N m s/rad); empty = designed from cartesian_damping_ratio',
+            [size(6, 'pose axis', empty_ok=True), gt_eq(0)]),
+        Row('max_pose_error', 'double_array', (0.1, 0.5), 'impedance (and hybrid toward a target_pose): largest '
+            'position (m) and rotation (rad) error fed to the law', [size(2, 'bound'), gt(0)]),
+    ]
 
-    Raises ParameterError (naming the parameter) when the start-up values are invalid.
-    """
 
-    def __init__(self, node):
-        self._node = node
-        self._model_cache = {}
-        self.specs = {}
-        values = {}
-        scenario = self._declare(scenario_spec())
-        values['scenario'] = scenario
-        try:
-            defaults = _scenario_defaults(scenario)
-        except ValueError as exc:
-            raise ParameterError('scenario', exc) from None
-        self.q_nominal = defaults.get('q_nominal')
-        values['model'] = self._declare(model_spec(defaults.get('model', 'polar_two_link')))
-        if 'joints' not in defaults and values['model'] in CLOSED_FORM:
-            defaults['joints'] = CLOSED_FORM[values['model']].joint_names
-        for spec in model_param_specs(values['model'], defaults.get('model_params')) + specs(defaults):
-            values[spec.name] = self._declare(spec)
-        self.current = self.build(values)
+def node_rows():
+    """The node: watchdog, outputs, lifecycle, and the gains in force it reports."""
+    return [
+        Row('state_timeout', 'double', 0.5, 'watchdog: no joint_states for this long stops commanding, s '
+            '(node clock: sim time when use_sim_time)', [gt(0)]),
+        Row('publish_effort_array', 'bool', False,
+            'also publish effort_controller/commands (std_msgs/Float64MultiArray, joints order)'),
+        Row('diagnostics_period', 'double', 0.5, 'period of /diagnostics, s (wall clock)', [gt(0)]),
+        Row('autostart', 'bool', True,
+            'configure and activate at start-up (false: wait for lifecycle transitions, e.g. ros2 lifecycle set)',
+            read_only=True),
+        *gains_rows(),
+    ]
 
-    def _declare(self, spec):
-        """Declare `spec`; returns its value (start-up override or default) as a Python value.
 
-        Non-empty defaults are declared as values (their type is the spec's). Empty arrays are
-        declared by type and then set to a typed empty list; a read-only one cannot be set after
-        declaration and stays 'not set', which reads as empty.
-        """
-        node = self._node
-        self.specs[spec.name] = spec
-        empty = isinstance(spec.default, tuple) and not spec.default
-        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
-        try:
-            param = node.declare_parameter(spec.name, spec.type if empty else default, spec.descriptor())
-        except InvalidParameterTypeException as exc:
-            raise ParameterError(spec.name, f'expected type {spec.type.name} ({exc})') from None
-        except InvalidParameterValueException as exc:
-            raise ParameterError(spec.name, exc) from None
-        if param.type_ == T.NOT_SET and not spec.read_only:  # no override, or an empty YAML list
-            node.set_parameters([Parameter(spec.name, spec.type, default)])
-            param = node.get_parameter(spec.name)
-        return _python(spec.type, param.value)
+#: the gains in force, reported by the node (designed or explicit), per servo
+GAINS = (('kp', '1/s^2 (N m/rad for independent_joint)'), ('kv', '1/s (N m s/rad)'), ('ki', '1/s^3 (N m/(rad s))'))
 
-    # -- run-time changes ------------------------------------------------------------------------
-    def coerce(self, parameters):
-        """Pre-set callback: int -> double, int array -> double array, any empty list -> the declared array type."""
-        out = []
-        for p in parameters:
-            spec = self.specs.get(p.name)
-            if spec is not None and p.type_ != spec.type:
-                if spec.type == T.DOUBLE and p.type_ == T.INTEGER:
-                    p = Parameter(p.name, T.DOUBLE, float(p.value))
-                elif spec.type == T.DOUBLE_ARRAY and p.type_ == T.INTEGER_ARRAY:
-                    p = Parameter(p.name, T.DOUBLE_ARRAY, [float(v) for v in p.value])
-                elif spec.type in ARRAY_TYPES and p.type_ in ARRAY_TYPES and len(p.value) == 0:
-                    p = Parameter(p.name, spec.type, [])
-            out.append(p)
-        return out
 
-    def validate(self, parameters):
-        """Snapshot the current values would become with `parameters` applied; ParameterError if invalid."""
-        values = dict(self.current.values)
-        for p in parameters:
-            spec = self.specs.get(p.name)
-            if spec is None:
-                continue  # use_sim_time and other parameters the node does not own
-            values[p.name] = _python(spec.type, p.value)
-        return self.build(values)
+def gains_rows():
+    """gains.kp, kv, ki (the motion servo: per joint, or per task / motion axis for hybrid) and gains.force_kp,
+    kv, ki (per force axis): what the controller computes with, written by it after every change."""
+    rows = []
+    for gain, unit in GAINS:
+        rows.append(Row(f'gains.{gain}', 'double_array', (), f'in force: the motion servo\'s {gain} per joint (hybrid: '
+                        f'per task or motion axis), {unit}; follows every change of {gain}, zeta, omega_res, omega_n',
+                        reported=True))
+    for gain, unit in GAINS:
+        rows.append(Row(f'gains.force_{gain}', 'double_array', (), f'in force: the force servo\'s {gain} per force '
+                        f'axis, {unit.split(" ")[0]}; follows every change of force_{gain}, zeta, omega_res, omega_n',
+                        reported=True))
+    return rows
 
-    def commit(self, snapshot):
-        """Make `snapshot` (from validate()) current."""
-        self.current = snapshot
 
-    # -- values -> ControllerConfig ----------------------------------------------------------------
-    def build(self, values):
-        """Snapshot(values, ControllerConfig) or ParameterError naming the first invalid parameter."""
-        model = self._model(values)
-        n = model.n
-        try:
-            config = self._config(values, model)
-        except ParameterError:
-            raise
-        except ValueError as exc:
-            name = str(exc).split(':', 1)[0]
-            raise ParameterError(name if name in self.specs else 'law', exc) from None
-        k = len(config.force_axes)
-        for name, length, what in (('q_d', n, 'joint'), ('f_d', k, 'force axis')):
-            arr = values[name]
-            if arr and len(arr) != length:
-                raise ParameterError(name, f'expected empty or {length} values (one per {what}), got {len(arr)}')
-            if arr:
-                validation.vector(name, arr, length)
-        for name in ('state_timeout', 'diagnostics_period'):
-            try:
-                validation.scalar(name, values[name], positive=True)
-            except ValueError as exc:
-                raise ParameterError(name, exc) from None
-        return Snapshot(values, config)
+def gains_in_force(config):
+    """{gains.*: tuple} of a ControllerConfig, for the reported rows."""
+    out = {}
+    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.force_gains)):
+        for gain, _ in GAINS:
+            out[f'{prefix}{gain}'] = () if gains is None else tuple(getattr(gains, gain).tolist())
+    return out
 
-    def _model(self, values):
-        name = values['model']
-        mp = {k.split('.', 1)[1]: v for k, v in values.items() if k.startswith('model_params.')}
-        key = (name, tuple(sorted(mp.items())), values['urdf'], values['robot_description'], values['tip'],
-               values['joints'])
-        if key in self._model_cache:
-            return self._model_cache[key]
-        try:
-            if name == 'urdf':
-                source = values['robot_description'] or values['urdf']
-                if not source:
-                    raise ParameterError('urdf', "model 'urdf' needs urdf (file or shipped name) or "
-                                                 'robot_description (XML text)')
-                if not source.lstrip().startswith('<'):
-                    from robot_control.models.urdf_model import resolve_urdf
-                    try:
-                        source = resolve_urdf(source)
-                    except ValueError as exc:
-                        raise ParameterError('urdf', str(exc).split(': ', 1)[-1]) from None
-                gravity = validation.scalar('gravity', mp['gravity'], nonnegative=True)
-                model = make_model('urdf', urdf=source, joints=values['joints'] or None,
-                                   tip=values['tip'] or None, gravity=(0.0, 0.0, -gravity))
-            else:
-                model = make_model(name, **mp)
-        except ParameterError:
-            raise
-        except ValueError as exc:
-            first = str(exc).split(':', 1)[0]
-            if first in mp:
-                raise ParameterError(f'model_params.{first}', str(exc).split(': ', 1)[-1]) from None
-            if first in ('joints', 'tip'):
-                raise ParameterError(first, str(exc).split(': ', 1)[-1]) from None
-            raise ParameterError('model', exc) from None
-        self._model_cache = {key: model}  # keep the latest only
-        return model
 
-    def _gains(self, values, prefix, n, design, scale=None):
-        """ServoGains (n,): each of {prefix}kp, kv, ki explicit (n values) or, when empty, designed.
+def constraint_rows(values):
+    """constraints.<joint>.trajectory and .goal per controlled joint (joint_trajectory_controller's names);
+    a URDF model without an explicit joints list has none (its joints are known only once it is built)."""
+    joints = values['joints'] or (CLOSED_FORM[values['model']].joint_names if values['model'] in CLOSED_FORM else ())
+    out = []
+    for joint in joints:
+        out += [Row(f'constraints.{joint}.trajectory', 'double', 0.0,
+                    f'path tolerance of {joint}: largest |q_d - q| while a trajectory runs, rad or m; 0 = not '
+                    'checked (a violation holds the position and reports ERROR)', [gt_eq(0)]),
+                Row(f'constraints.{joint}.goal', 'double', 0.0,
+                    f'goal tolerance of {joint}: largest |q_d - q| at the end of a trajectory, rad or m; '
+                    '0 = not checked', [gt_eq(0)])]
+    return out
 
-        Designed gains are design.kp, kv, ki times `scale` per entry (a callable giving the (n,)
-        scale, evaluated only when needed); ki is used only with integral action.
-        """
-        integral = values['integral']
-        out = []
-        for g in ('kp', 'kv', 'ki'):
-            name, arr = f'{prefix}{g}', values[f'{prefix}{g}']
-            if g == 'ki' and not integral:
-                out.append(np.zeros(n))
-            elif arr:
-                if len(arr) != n:
-                    raise ParameterError(name, f'expected {n} values, got {len(arr)} (or none for designed gains)')
-                out.append(np.array(arr, dtype=float))
-            else:
-                out.append(getattr(design, g) * (np.ones(n) if scale is None else scale()))
-        try:
-            return ServoGains(*out)
-        except ValueError as exc:
-            text = str(exc)
-            raise ParameterError(f'{prefix}{text.split(":", 1)[0]}', text.split(': ', 1)[-1]) from None
 
-    def _config(self, values, model):
-        law = values['law']
-        if law not in LAWS:
-            raise ParameterError('law', f'unknown {law!r}; expected one of {list(LAWS)}')
-        n, m = model.n, model.task_dim
-        try:
-            design = gain_design.design(values['zeta'], values['omega_res'], values['omega_n'] or None,
-                                        integral=values['integral'])
-        except ValueError as exc:
-            name = str(exc).split(':', 1)[0]
-            raise ParameterError(name if name in self.specs else 'zeta', exc) from None
-        force_axes = values['force_axes']
-        k = len(force_axes)
-        if law in JOINT_LAWS:
-            scale = (lambda: self._joint_inertia(model)) if law == 'independent_joint' else None
-            motion = self._gains(values, '', n, design, scale)
-        elif law == 'hybrid':
-            motion_axes = m - k
-            dim = len(values['kp']) if values['kp'] and len(values['kp']) in (m, motion_axes) else m
-            motion = self._gains(values, '', max(dim, 1), design) if m else None
-        else:
-            motion = None
-        force = self._gains(values, 'force_', k, design) if k else None
-        return ControllerConfig(
-            model=model, law=law, gains=motion, force_gains=force, integral=values['integral'],
-            integral_limit=values['integral_limit'],
-            effort_limit=values['effort_limits'] or None,
-            joints=values['joints'] or None, force_axes=force_axes,
-            k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
-            force_lead_time=values['force_lead_time'],
-            posture_gains=(values['posture_kp'], values['posture_kv']),
-            move_time=values['move_time'], force_ramp_time=values['force_ramp_time'],
-            contact_max_travel=values['contact_max_travel'], contact_max_speed=values['contact_max_speed'])
-
-    def _joint_inertia(self, model):
-        """diag M(q_nominal) (scenario start, else zeros): scales designed gains for independent_joint."""
-        q = np.zeros(model.n) if self.q_nominal is None else np.array(self.q_nominal, dtype=float)
-        diag = np.diag(model.M(q)).copy()
-        if not np.all(diag > 0.0):
-            raise ParameterError('kp', f'independent_joint designs kp = omega_n^2 M_ii(q0) but M_ii(q0) = '
-                                       f'{diag.tolist()} at q0 = {q.tolist()}; give kp and kv explicitly')
-        return diag
-
+TABLE = Table('controller', lambda values: [scenario_row()], lambda values: [model_row(values)], rows,
+              constraint_rows)

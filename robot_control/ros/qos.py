@@ -60,6 +60,10 @@ CONTROL_PUB_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 REFERENCE_PUB_QOS = CONTROL_PUB_QOS
+#: robot_description as robot_state_publisher offers it: reliable, transient local (a late
+#: subscriber gets the URDF), the latest only
+DESCRIPTION_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 __all__ = ['CONTROL_QOS', 'REFERENCE_QOS', 'DIAGNOSTICS_QOS', 'CONTROL_PUB_QOS', 'REFERENCE_PUB_QOS',
-           'PUBLISHER_DEPTH']
+           'PUBLISHER_DEPTH', 'DESCRIPTION_QOS']

@@ -1,11 +1,9 @@
-"""Executors of the nodes (issue 6, "Make it fast"): which one, and how to spin it so it stops.
+"""Executors of the nodes: which one, and how to spin it so that a signal stops it.
 
 rclpy's EventsExecutor (rclpy.experimental) dispatches a message without rebuilding a wait set
-over every entity of the node in Python, as SingleThreadedExecutor does on each wake-up; measured
-over DDS on the 2-core bench machine, one lockstep round trip cost 367 us of CPU with it on both
-ends against 625 us with SingleThreadedExecutor on the answering end. Its spin() however neither
-notices the shutdown by rclpy's SIGINT/SIGTERM handler nor, in a probe, ran timer and
-subscription callbacks at all, so it is spun with spin_once in a loop, as here.
+over every entity of the node in Python, as SingleThreadedExecutor does on each wake-up: about
+half the CPU per message. Its spin() does not notice a shutdown by signal, so it is spun with
+spin_once in a loop, as here; `--executor single` selects SingleThreadedExecutor instead.
 """
 import signal
 import threading

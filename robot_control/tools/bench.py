@@ -1,4 +1,4 @@
-"""Benchmarks (issue 6): control-law cost, closed-loop rate and latency over DDS, physics rate.
+"""Benchmarks: control-law cost, closed-loop rate and latency over DDS, physics rate, against targets.
 
     python -m robot_control.tools.bench [--quick] [--out out/bench] [--only b1,b2,b3,b4] [--domain-id N]
 
@@ -16,7 +16,8 @@ B2 lockstep closed loop over DDS (robot_control.tools.bench_ros), against a bare
 B3 real time at 1 kHz (robot_control.tools.bench_ros).
 B4 the PyBullet World of the iiwa without ROS: physics steps per second under torque control.
 
---quick runs seconds instead of minutes and still writes every key. ROS processes run with
+`make bench` runs it (`make bench QUICK=1` with --quick). --quick runs seconds instead of minutes
+and still writes every key. ROS processes run with
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST on a domain id private to this run (from the pid).
 """
 import argparse
@@ -32,7 +33,7 @@ import time
 
 import numpy as np
 
-#: targets of issue 6: key -> (comparison, bound)
+#: the targets: key -> (comparison, bound); the table marks each figure met or MISSED
 TARGETS = {
     'law_us_ct_2dof_median': ('<=', 10.0),
     'law_us_ct_7dof_median': ('<=', 20.0),

@@ -1,12 +1,13 @@
-"""Benchmarks B2 and B3 (issue 6): closed loops over DDS between separate processes.
+"""Benchmarks B2 and B3 of robot_control.tools.bench: closed loops over DDS between separate processes.
 
 The bridge (`python -m sim_bridge.bridge_node`) and the controller (`python -m
 robot_control.ros.controller_node`) run as the user runs them, `--ros-args --params-file
-config/<scenario>.yaml`, with a 1 ms control period. The bench watches `joint_states` and
-`robot_joint_commands` without an executor: raw subscriptions whose samples it takes straight
-from DDS every few ms, each with its header stamp and the DDS source (publish) and reception
-timestamps (ns, the system clock, shared by all processes of this machine). No Python runs per
-message in the bench, so watching costs the loop next to nothing.
+config/<scenario>.yaml`, with a 1 ms control period; their output goes to <logdir>/<kind>_<mode>/.
+The bench watches `joint_states` and `robot_joint_commands` through raw subscriptions
+(robot_control.tools.taps): each sample with its header stamp and the DDS source (publish) and
+reception timestamps (ns, the system clock, shared by all processes of this machine). The
+samples wait in DDS until the bench asks for them every few ms, and nothing is deserialized, so
+watching costs the loop next to nothing.
 
 B2 lockstep: steps/s = (stamp advance / control period) / (reception time advance) over a
 window, for polar_two_link, iiwa and the bare ping-pong (robot_control.tools.bench_pingpong) with the
@@ -123,10 +124,6 @@ def node_commands(kind, mode):
 
 
 # -- observing DDS -------------------------------------------------------------------------------
-def _ignore(_msg):
-    pass
-
-
 def header_stamp_ns(cdr):
     """header.stamp of a serialized (CDR) message whose first field is a Header, ns."""
     sec, nanosec = struct.unpack_from('<iI' if cdr[1] & 1 else '>iI', cdr, 4)   # encapsulation: CDR_LE / CDR_BE
@@ -134,7 +131,8 @@ def header_stamp_ns(cdr):
 
 
 class Observer:
-    """Raw subscriptions to joint_states and robot_joint_commands, read by take() (no executor)."""
+    """joint_states and robot_joint_commands, raw with their DDS timestamps (robot_control.tools.taps),
+    on a node of its own spun only when take() asks for what has arrived."""
 
     TOPICS = ('joint_states', 'robot_joint_commands')
 
@@ -142,24 +140,22 @@ class Observer:
         from rclpy.node import Node
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
+        from robot_control.ros.spin import make_executor
+        from robot_control.tools.taps import Tap
         self.node = Node('bench_observer', context=context)
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=OBSERVER_DEPTH,
                          reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.subs = {t: self.node.create_subscription(JointState, t, _ignore, qos, raw=True) for t in self.TOPICS}
+        self.tap = Tap(self.node, {t: JointState for t in self.TOPICS}, qos)
+        self.executor = make_executor('events', context=context)
+        self.executor.add_node(self.node)
 
     def take(self, topic):
-        """Every queued sample of `topic` as (stamp, source, received) rows, ns; (0, 3) when none.
-
-        Takes through the subscription's handle, as rclpy's executors do, to get the message info."""
-        sub = self.subs[topic]
-        rows = []
-        with sub.handle:
-            while True:
-                taken = sub.handle.take_message(sub.msg_type, True)
-                if taken is None:
-                    break
-                cdr, info = taken
-                rows.append((header_stamp_ns(cdr), info['source_timestamp'], info['received_timestamp']))
+        """Every sample of `topic` received since the last take, as (stamp, source, received) rows, ns;
+        shape (0, 3) when none. The executor first hands over everything DDS holds (in rounds of 0 s:
+        what is ready)."""
+        from robot_control.tools.taps import spin_until_idle
+        spin_until_idle(self.executor, self.tap.count, round_s=0.0)
+        rows = [(header_stamp_ns(cdr), source, received) for cdr, source, received in self.tap.pop(topic)]
         return np.array(rows, dtype=np.int64).reshape(-1, 3)
 
     def drain(self):
@@ -178,6 +174,7 @@ class Observer:
         raise RuntimeError(f'no {topic} within {timeout:g} s')
 
     def destroy(self):
+        self.executor.shutdown()
         self.node.destroy_node()
 
 

@@ -1,4 +1,4 @@
-"""The demo: the lecture's control laws driving a simulated robot over DDS (issue 5).
+"""The demo: the lecture's control laws driving a simulated robot over DDS.
 
     python -m robot_control.demo --scenario polar_two_link          # what `make demo` runs
     python -m robot_control.demo --scenario iiwa --mode realtime --duration 5
@@ -10,25 +10,24 @@ each with `--ros-args --params-file config/<scenario>.yaml` plus the experiment'
 DDS domain of its own with discovery limited to this machine. In this process it runs the
 experiment's reference publisher, the metrics collector and the rosbag2 recorder. It prints a
 progress line per second, stops every process it started (by pid, also on Ctrl-C, SIGTERM or an
-error), prints a summary table and writes `out/demo/<name>/`: `summary.json`, `tracking.png`,
-`bag/` (mcap, every topic) and `logs/` (the two nodes' output).
+error), prints a summary table and writes `out/demo/<name>/`: `summary.json` (the metrics of
+robot_control.tools.demo_metrics, the run's domain, expected ticks and lost messages),
+`tracking.png`, `bag/` (mcap, every topic) and `logs/` (the two nodes' output).
 
 Modes: `lockstep` (the default) is deterministic -- the bridge steps only when the command for the
-current state has arrived, so the same run gives the same numbers every time, on any machine, and
-it runs as fast as the three processes allow (measured on 2 cores: 500-800 control ticks per
-second, 0.5-0.8x real time; the progress line shows the rate), so a 4 s run takes ~10 s. It is
-the default because it always shows the lecture's result (the step follows e0 (1 + 6t) exp(-6t)
-within 0.2 %), however loaded the machine. `realtime` paces the physics to the wall clock with the
-latest command held (brakes if commands go stale): what a real robot would see, timing included;
-when the controller cannot answer every 1 ms tick (measured here: about half of them), the
-response degrades accordingly.
+current state has arrived, so the same run gives the same numbers every time, on any machine; it
+runs as fast as the three processes allow (the progress line shows the rate of control ticks per
+second). It always shows the lecture's result (the step follows e0 (1 + 6t) exp(-6t) within
+0.2 %), however loaded the machine. `realtime` paces the physics to the wall clock with the latest
+command held (brakes if commands go stale): what a real robot would see, timing included; a
+controller that cannot answer every 1 ms tick degrades the response accordingly.
 
-Sequence of a run (all waits bounded): start the recorder; start the bridge and pause it; start
-the controller and wait until it is connected; resume and wait for its first command (t = 0 is
-the origin in lockstep); pause, send the experiment's references stamped at origin + t (the
-controller confirms in its log), resume; run for `duration` s of simulation; pause, stop the
-recorder and the processes; align the collected messages per control tick; compute the metrics
-(robot_control.tools.demo_metrics), plot (robot_control.tools.plot.tracking_figure), write the files.
+A run, all waits bounded: start the recorder; start the bridge and pause it; start the controller
+and wait until it is connected; wait for the first tick of every stream (t = 0 is the origin in
+lockstep); send the experiment's references stamped at origin + t (the controller confirms in its
+log) and resume; run for `duration` s of simulation, sending force references as they fall due;
+pause, wait for the last tick, stop the recorder and the processes; align the collected messages
+per control tick; compute the metrics, plot (robot_control.tools.plot.tracking_figure), write the files.
 """
 import argparse
 import json
@@ -39,10 +38,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_control import units
+from robot_control import scenarios, units
+from robot_control.laws import LAWS
 from robot_control.tools import demo_experiments as experiments
+from robot_control.tools import demo_metrics
 from robot_control.tools import demo_procs as procs
-from robot_control import scenarios
 
 NS = units.NS_PER_S
 ROOT = Path(__file__).resolve().parents[2]
@@ -199,7 +199,7 @@ def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, p
 
 
 def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data):
-    from robot_control.tools import demo_metrics, demo_ros
+    from robot_control.tools import demo_ros
     env = procs.ros_env(domain_id)
     # this process joins the same private domain, loopback only, before rclpy reads the environment
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
@@ -208,117 +208,204 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
     joints = experiment.joints
     units = dict(zip(joints, experiment.units))
     law = experiment.law
-    f_names, f_index = force_axes_of(scenario) if law in ('force', 'hybrid') else ((), ())
-    if law == 'hybrid':
-        units = {a: 'm' for a in ('x', 'y', 'z')}
-
-    bridge_params = {'mode': mode, **experiment.bridge}
-    ctrl_params = dict(experiment.controller)
-    if experiment.force is not None:
-        ctrl_params['f_d'] = list(experiment.force)
-
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from robot_control.tools.record import Recorder
+    f_names, f_index = force_axes_of(scenario) if LAWS[law].uses_force else ((), ())
+    if LAWS[law].tracks == 'task':
+        units = dict(zip(experiment.task_axes, demo_metrics.task_units(experiment.task_axes)))
 
     say = write or (lambda *a, **k: None)
-    ctx = demo_ros.context_with_domain(domain_id)
-    executor = SingleThreadedExecutor(context=ctx)
-    control = collector = recorder = None
-    children = procs.ProcessSet()
-    bag = out_dir / 'bag'
     result = RunResult(summary={}, out_dir=out_dir)
     t_wall0 = time.monotonic()
-    try:
-        collector = demo_ros.Collector(ctx, name=f'demo_collector_{domain_id}')
-        control = demo_ros.RunControl(ctx, executor, name=f'demo_{domain_id}')
-        poll = collector.poll
+    with LiveRun(domain_id, env, out_dir / 'logs', say) as live:
         if record:
-            recorder = Recorder(control.node, bag, [f'{t}:{ty}' for t, ty in demo_ros.RUN_TOPICS.items()],
-                                all_topics=True, discovery_timeout=0.0, overwrite=True)
-            recorder.start()
-        logs = out_dir / 'logs'
+            live.start_recording(out_dir / 'bag')
         say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s): ROS_DOMAIN_ID={domain_id}, '
             'discovery LOCALHOST', flush=True)
-        bridge = children.start('sim_bridge', node_argv('sim_bridge.bridge_node', scenario, bridge_params,
-                                                        BRIDGE_ARGS), env, logs / 'sim_bridge.log', cwd=ROOT)
+        live.start_nodes(scenario, {'mode': mode, **experiment.bridge}, controller_params(experiment))
+        origin_ns = live.wait_for_first_tick(mode)
+        live.send_references(joints, experiment.trajectory, origin_ns)
+        live.resume()
+        end_ns = origin_ns + int(round(duration * NS))
+        progress = Progress(live.collector, origin_ns, units, f_names, say if write else None)
+        say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
+        live.run_until(end_ns, ForceSchedule(experiment.force_events, f_names, origin_ns, say), progress)
+        live.pause()
+        wall = time.monotonic() - t_wall0
+        live.wait_for_last_tick(end_ns)
+        limits, _ = demo_ros.controller_diagnostics(live.collector)
+        if not limits:
+            limits = effort_limit_fallback(scenario)
+        if record:
+            result.bag_counts, result.bag = live.stop_recording(), out_dir / 'bag'
+        result.exit_codes = live.stop_nodes()
+        data = demo_ros.align(live.collector, joints, experiment.units, f_names, f_index, law, origin_ns, end_ns,
+                              limits, lockstep=mode == 'lockstep')
+    result.summary = summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say)
+    write_outputs(out_dir, result.summary, data, experiment, f'{law}, {mode}' if plot else None)
+    result.data = data if keep_data else None
+    return result
 
-        def alive():
-            procs.check_interrupted()
-            poll()
-            children.check_alive()
 
-        control.spin_until(lambda: collector.publishers('/joint_states') > 0 and control.pause_client.service_is_ready(),
-                           STARTUP_TIMEOUT, alive, 'the simulator bridge to start')
-        control.pause(True, poll=alive)
-        controller = children.start('controller', node_argv('robot_control.ros.controller_node', scenario, ctrl_params),
-                                    env, logs / 'controller.log', cwd=ROOT)
-        say(f'[demo] started sim_bridge (pid {bridge.pid}) and controller (pid {controller.pid})', flush=True)
+def controller_params(experiment):
+    """The controller's parameter overrides of `experiment`: its own, and f_d of its initial force."""
+    params = dict(experiment.controller)
+    if experiment.force is not None:
+        params['f_d'] = list(experiment.force)
+    return params
 
-        def connected():
-            return (all(collector.publishers(t) > 0 for t in
-                        ('/robot_joint_commands', '/controller/reference', '/controller/error'))
-                    and control.traj_pub.get_subscription_count() > 0
-                    and control.subscribed('/joint_states', 'controller'))
-        control.spin_until(connected, STARTUP_TIMEOUT, alive, 'the controller to connect')
+
+class ForceSchedule:
+    """The experiment's force references ((t, f per axis), ...), each sent as soon as the one before
+    it is due (the first at once), stamped with its time: the controller holds it and applies it at
+    exactly that tick (repeatable in lockstep)."""
+
+    def __init__(self, events, axes, origin_ns, say):
+        self.events = sorted(events)
+        self.axes = axes
+        self.origin_ns = origin_ns
+        self.say = say
+        self.next_send_ns = origin_ns
+
+    def send_due(self, control, stamp_ns):
+        """Send what is due once the simulation has reached `stamp_ns` (ns)."""
+        while self.events and stamp_ns >= self.next_send_ns:
+            t_ev, f_ev = self.events.pop(0)
+            self.next_send_ns = self.origin_ns + int(round(t_ev * NS))
+            control.send_force(self.axes, f_ev, stamp_ns=self.next_send_ns)
+            self.say(f'[demo] force reference {dict(zip(self.axes, f_ev))} N from t = {t_ev:.3f} s (sent at '
+                     f't = {(stamp_ns - self.origin_ns) / NS:.3f} s)', flush=True)
+
+
+class LiveRun:
+    """This process's side of a run on a private domain: the collector and the run control spun by
+    one EventsExecutor, the recorder, and the two node processes. Leaving the `with` block stops
+    the recorder and every child and shuts the context down, also on an error or an interrupt."""
+
+    def __init__(self, domain_id, env, logs, say):
+        from robot_control.ros.spin import make_executor
+        from robot_control.tools import demo_ros
+        self.env, self.logs, self.say = env, logs, say
+        self.children = procs.ProcessSet()
+        self.bridge = self.controller = None
+        self.collector = self.control = self.recorder = self.executor = None
+        self.ctx = demo_ros.context_with_domain(domain_id)
+        try:
+            self.executor = make_executor('events', context=self.ctx)
+            self.collector = demo_ros.Collector(self.ctx, self.executor, name=f'demo_collector_{domain_id}')
+            self.control = demo_ros.RunControl(self.ctx, self.executor, name=f'demo_{domain_id}')
+        except BaseException:
+            self.close()
+            raise
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+    def alive(self):
+        """Raise the interruption of a signal received, or ProcessError if a child has exited."""
+        procs.check_interrupted()
+        self.children.check_alive()
+
+    def start_recording(self, bag):
+        """Record every topic of the run (and any other that appears) into `bag`, replacing an old bag."""
+        from robot_control.tools import demo_ros
+        from robot_control.tools.record import Recorder
+        self.recorder = Recorder(self.control.node, bag, [f'{t}:{ty}' for t, ty in demo_ros.RUN_TOPICS.items()],
+                                 all_topics=True, discovery_timeout=0.0, overwrite=True)
+        self.recorder.start()
+
+    def stop_recording(self):
+        """Close the bag; {topic: messages written}."""
+        return self.recorder.stop()
+
+    def start_nodes(self, scenario, bridge_params, controller_params):
+        """Start the bridge and pause it once it is up, start the controller, wait until it is connected."""
+        control, collector = self.control, self.collector
+        self.bridge = self._start('sim_bridge', 'sim_bridge.bridge_node', scenario, bridge_params, BRIDGE_ARGS)
+        control.spin_until(lambda: (collector.publishers('/joint_states') > 0
+                                    and control.pause_client.service_is_ready()),
+                           STARTUP_TIMEOUT, self.alive, 'the simulator bridge to start')
+        self.pause()
+        self.controller = self._start('controller', 'robot_control.ros.controller_node', scenario, controller_params)
+        self.say(f'[demo] started sim_bridge (pid {self.bridge.pid}) and controller (pid {self.controller.pid})',
+                 flush=True)
+        control.spin_until(self._connected, STARTUP_TIMEOUT, self.alive, 'the controller to connect')
+
+    def _start(self, name, module, scenario, params, extra=()):
+        """Start `python -m module` with the scenario's parameter file and `params`; output to logs/<name>.log."""
+        return self.children.start(name, node_argv(module, scenario, params, extra), self.env,
+                                   self.logs / f'{name}.log', cwd=ROOT)
+
+    def _connected(self):
+        return (all(self.collector.publishers(t) > 0 for t in
+                    ('/robot_joint_commands', '/controller/reference', '/controller/error'))
+                and self.control.traj_pub.get_subscription_count() > 0
+                and self.control.subscribed('/joint_states', 'controller'))
+
+    def wait_for_first_tick(self, mode):
+        """Wait until a sample of every stream of a tick has arrived; returns the run's origin, ns."""
         # the paused bridge re-publishes its state every 0.1 s: the controller answers while the world stands still.
         # A sample of every stream of the tick must have arrived: a publisher sends ~/reference, ~/error and the
         # wrench only once its own side has matched the collector (DDS discovers the two sides independently), so
         # seeing the publisher here is not enough to be sure the first tick's samples are sent
-        control.spin_until(lambda: all(collector.count(t) > 0 for t in FIRST_TICK), STARTUP_TIMEOUT, alive,
-                           'the first state, command, reference, error and wrench')
+        self.control.spin_until(lambda: all(self.collector.count(t) > 0 for t in FIRST_TICK), STARTUP_TIMEOUT,
+                                self.alive, 'the first state, command, reference, error and wrench')
         if mode == 'lockstep':
-            origin_ns = 0   # the bridge steps only once the command for t = 0 has arrived
-        else:
-            # physics ran (braked) from the bridge's start until the pause: start 50 ms on
-            origin_ns = (collector.last_stamp_ns() or 0) + NS // 20
-        # -- references, stamped on the simulation clock, confirmed by the controller
+            return 0   # the bridge steps only once the command for t = 0 has arrived
+        # physics ran (braked) from the bridge's start until the pause: start 50 ms on
+        return (self.collector.last_stamp_ns() or 0) + NS // 20
+
+    def send_references(self, joints, trajectory, origin_ns):
+        """Send `trajectory` (a TrajectorySpec or None) stamped at origin + its t_start and wait for the
+        controller to accept it (RuntimeError if it rejects it)."""
+        control = self.control
         mark = len(control.log)
-        if experiment.trajectory is not None:
-            spec = experiment.trajectory
-            stamp = origin_ns + int(round(spec.t_start * NS))
-            last = collector.last_stamp_ns() or 0
+        if trajectory is not None:
+            stamp = origin_ns + int(round(trajectory.t_start * NS))
+            last = self.collector.last_stamp_ns() or 0
             if stamp <= last:
                 raise RuntimeError(f'trajectory start {stamp / NS:.3f} s is already past (t = {last / NS:.3f} s)')
-            control.send_trajectory(joints, spec, stamp)
+            control.send_trajectory(joints, trajectory, stamp)
             control.spin_until(lambda: control.controller_said('trajectory accepted', mark) is not None
-                               or control.controller_rejections(mark), CONFIRM_TIMEOUT, alive,
+                               or control.controller_rejections(mark), CONFIRM_TIMEOUT, self.alive,
                                'the controller to accept the trajectory')
             if control.controller_rejections(mark):
                 raise RuntimeError(f'controller rejected the trajectory: {control.controller_rejections(mark)}')
-        control.pause(False, poll=alive)
 
-        # -- the run
-        end_ns = origin_ns + int(round(duration * NS))
-        events = sorted(experiment.force_events)
-        next_event_send_ns = origin_ns
-        progress = Progress(collector, origin_ns, units, f_names, say if write else None)
+    def pause(self):
+        """Pause the bridge (its physics stands still; it re-publishes the state every 0.1 s)."""
+        self.control.pause(True, poll=self.alive)
+
+    def resume(self):
+        self.control.pause(False, poll=self.alive)
+
+    def run_until(self, end_ns, forces, progress):
+        """Spin until the command of the tick at `end_ns` has arrived, sending the force references
+        (a ForceSchedule) as they fall due; RuntimeError when the simulation stalls for STALL_TIMEOUT s."""
+        collector = self.collector
         last_progress_wall, last_stamp = time.monotonic(), -1
-        say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
         while True:
-            control.spin(0.002)
-            alive()
+            self.control.spin(0.002)
+            self.alive()
             cmds = collector.raw['/robot_joint_commands']
             stamp = collector.last_stamp_ns('/robot_joint_commands') if cmds else -1
             if stamp >= end_ns:
-                break
+                return
             if stamp != last_stamp:
                 last_stamp, last_progress_wall = stamp, time.monotonic()
             elif time.monotonic() - last_progress_wall > STALL_TIMEOUT:
                 raise RuntimeError(f'the simulation stalled at t = {stamp / NS:.3f} s for {STALL_TIMEOUT:g} s\n'
-                                   f'sim_bridge log:\n{bridge.log_tail()}\ncontroller log:\n{controller.log_tail()}')
-            # each force step is sent as soon as the one before it is due (the first at once), stamped with
-            # its time: the controller holds it and applies it at exactly that tick (repeatable in lockstep)
-            while events and stamp >= next_event_send_ns:
-                t_ev, f_ev = events.pop(0)
-                next_event_send_ns = origin_ns + int(round(t_ev * NS))
-                control.send_force(f_names, f_ev, stamp_ns=next_event_send_ns)
-                say(f'[demo] force reference {dict(zip(f_names, f_ev))} N from t = {t_ev:.3f} s (sent at '
-                    f't = {(stamp - origin_ns) / NS:.3f} s)', flush=True)
+                                   f'sim_bridge log:\n{self.bridge.log_tail()}\n'
+                                   f'controller log:\n{self.controller.log_tail()}')
+            forces.send_due(self.control, stamp)
             progress.maybe()
-        control.pause(True, poll=alive)
-        wall = time.monotonic() - t_wall0
 
+    def wait_for_last_tick(self, end_ns):
+        """Wait, at most REPAIR_TIMEOUT s, for every stream of the tick at `end_ns` (a tick still missing
+        then is reported as lost)."""
+        collector = self.collector
         # the last tick's reference and error follow its command; its wrench precedes its state (when the
         # bridge publishes wrenches at all: the collector subscribes, so it does from the start)
         last_ticks = ['/controller/reference', '/controller/error', '/joint_states']
@@ -329,53 +416,58 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
             return all(collector.last_stamp_ns(t) is not None and collector.last_stamp_ns(t) >= end_ns
                        for t in last_ticks)
         try:
-            control.spin_until(tick_complete, REPAIR_TIMEOUT, alive, 'the last tick')
+            self.control.spin_until(tick_complete, REPAIR_TIMEOUT, self.alive, 'the last tick')
         except TimeoutError:
-            pass  # reported as lost messages
-        limits, _ = demo_ros.controller_diagnostics(collector)
-        if not limits:
-            limits = effort_limit_fallback(scenario)
-        if recorder is not None:
-            result.bag_counts = recorder.stop()
-            result.bag = bag
-        result.exit_codes = children.stop_all()
-        data = demo_ros.align(collector, joints, experiment.units, f_names, f_index, law, origin_ns, end_ns, limits,
-                              lockstep=mode == 'lockstep')
-        summary = demo_metrics.summarize(data, experiment, mode, duration, wall_time_s=wall)
-        summary['domain_id'] = domain_id
-        summary['expected_ticks'] = int(data.expected_ticks)
-        summary['lost_messages'] = {topic: {'count': len(times), 'ranges_s': time_ranges(times)}
-                                    for topic, times in data.lost.items()}
-        if data.lost:
-            worst = max(data.lost, key=lambda k: len(data.lost[k]))
-            spans = ', '.join(f'{a:.3f}-{b:.3f}' for a, b in time_ranges(data.lost[worst])[:5])
-            say(f'[demo] warning: {len(data.lost[worst])} of {data.expected_ticks} ticks did not reach the '
-                f'collector ({worst}, t = {spans} s); the metrics use the others', flush=True)
-        summary['bag'] = 'bag' if record else None
-        summary['figure'] = 'tracking.png' if plot else None
-        with open(out_dir / 'summary.json', 'w') as f:
-            json.dump(summary, f, indent=2, allow_nan=False)
-            f.write('\n')
-        if plot:
-            from robot_control.tools.plot import tracking_figure
-            tracking_figure(demo_metrics.plot_data(data, experiment, f'{law}, {mode}'),
-                            out_dir / 'tracking.png')
-        result.summary = summary
-        result.data = data if keep_data else None
-        return result
-    finally:
+            pass
+
+    def stop_nodes(self):
+        """Stop the bridge and the controller; {name: exit status}."""
+        return self.children.stop_all()
+
+    def close(self):
+        """Stop the recorder and every child, destroy this process's nodes, shut the context down."""
+        import rclpy
         try:
-            if recorder is not None:
-                recorder.stop()
+            if self.recorder is not None:
+                self.recorder.stop()
         finally:
-            codes = children.stop_all()
-            if not result.exit_codes:
-                result.exit_codes = codes
-            for part in (control, collector):
+            self.children.stop_all()
+            for part in (self.control, self.collector):
                 if part is not None:
                     part.destroy()
-            executor.shutdown()
-            rclpy.try_shutdown(context=ctx)
+            if self.executor is not None:
+                self.executor.shutdown()
+            rclpy.try_shutdown(context=self.ctx)
+
+
+def summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say):
+    """The summary.json dict of a run: the metrics of demo_metrics.summarize, the domain, the
+    expected ticks and the lost messages (warned about through `say`), the names of the outputs."""
+    from robot_control.tools import demo_metrics
+    summary = demo_metrics.summarize(data, experiment, mode, duration, wall_time_s=wall)
+    summary['domain_id'] = domain_id
+    summary['expected_ticks'] = int(data.expected_ticks)
+    summary['lost_messages'] = {topic: {'count': len(times), 'ranges_s': time_ranges(times)}
+                                for topic, times in data.lost.items()}
+    if data.lost:
+        worst = max(data.lost, key=lambda k: len(data.lost[k]))
+        spans = ', '.join(f'{a:.3f}-{b:.3f}' for a, b in time_ranges(data.lost[worst])[:5])
+        say(f'[demo] warning: {len(data.lost[worst])} of {data.expected_ticks} ticks did not reach the '
+            f'collector ({worst}, t = {spans} s); the metrics use the others', flush=True)
+    summary['bag'] = 'bag' if record else None
+    summary['figure'] = 'tracking.png' if plot else None
+    return summary
+
+
+def write_outputs(out_dir, summary, data, experiment, plot_title=None):
+    """Write out_dir/summary.json and, given a plot title, out_dir/tracking.png."""
+    with open(out_dir / 'summary.json', 'w') as f:
+        json.dump(summary, f, indent=2, allow_nan=False)
+        f.write('\n')
+    if plot_title is not None:
+        from robot_control.tools import demo_metrics
+        from robot_control.tools.plot import tracking_figure
+        tracking_figure(demo_metrics.plot_data(data, experiment, plot_title), out_dir / 'tracking.png')
 
 
 def interrupted(exc):
@@ -402,7 +494,7 @@ def _parser():
     what.add_argument('--scenario', default=None, choices=sorted(experiments.DEFAULT_FOR_SCENARIO),
                       help='scenario to run with its default experiment (default: polar_two_link)')
     what.add_argument('--experiment', default=None, choices=list(experiments.EXPERIMENTS),
-                      help='run a named experiment (the lecture experiments of issue 5)')
+                      help='run a named experiment (the lecture\'s experiments)')
     what.add_argument('--all', action='store_true', help='run every experiment (lockstep), one after the other')
     p.add_argument('--mode', choices=('lockstep', 'realtime'), default='lockstep',
                    help='lockstep: deterministic, as fast as possible (default); realtime: paced to the wall clock')

@@ -1,5 +1,5 @@
-"""The demo's experiments: for each scenario a sensible one, and the lecture's experiments of
-issue 5 (disturbance rejection, model error, computed torque vs independent joint, ...).
+"""The demo's experiments: for each scenario a sensible one, and the lecture's experiments
+(disturbance rejection, model error, computed torque vs independent joint, ...).
 
 An Experiment is data: which scenario (config/<scenario>.yaml), parameter overrides for the two
 nodes, the references the demo publishes, the run length and the windows the metrics use.
@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robot_control import scenarios
+from robot_control.models import CLOSED_FORM
+from robot_control.models.base import TASK_SPACES
 
 #: position unit of each joint of each scenario ('rad' revolute, 'm' prismatic)
 JOINT_UNITS = {
@@ -78,6 +80,14 @@ class Experiment:
     @property
     def units(self):
         return JOINT_UNITS[self.scenario]
+
+    @property
+    def task_axes(self):
+        """The task axes of the controller's model: a closed form's own; a URDF model's by its task_space."""
+        sc = scenarios.get(self.scenario)
+        if sc.model != 'urdf':
+            return CLOSED_FORM[sc.model].task_axes
+        return TASK_SPACES[self.controller.get('task_space', 'position')]
 
     def with_duration(self, duration):
         import dataclasses
@@ -181,13 +191,11 @@ def _polar_step():
         notes='error must follow e(t) = e0 (1 + 6 t) exp(-6 t)')
 
 
-def _planar(law):
+def _planar(name, law, what):
     q0 = np.array(scenarios.get('planar_two_link').q0)
     traj = sampled(raised_cosine(q0, (1.2, -1.0), 1.0), 0.2, 2.2)
-    name = 'planar_fast_path' if law == 'computed_torque' else 'planar_independent_joint'
-    what = 'PD computed torque' if law == 'computed_torque' else 'independent-joint PD, same design (kp = w_n^2 M_ii(q0))'
-    return Experiment(name, 'planar_two_link', f'fast path (1 Hz, 1.2 / 1.0 rad, up to 3.8 rad/s): {what}', duration=2.5, law=law,
-                      controller={'law': law}, trajectory=traj, settle_from=2.2)
+    return Experiment(name, 'planar_two_link', f'fast path (1 Hz, 1.2 / 1.0 rad, up to 3.8 rad/s): {what}',
+                      duration=2.5, law=law, controller={'law': law}, trajectory=traj, settle_from=2.2)
 
 
 def _single_link_step():
@@ -300,8 +308,9 @@ def _iiwa_hybrid_line():
 
 _BUILDERS = {
     'polar_step': _polar_step,
-    'planar_fast_path': lambda: _planar('computed_torque'),
-    'planar_independent_joint': lambda: _planar('independent_joint'),
+    'planar_fast_path': lambda: _planar('planar_fast_path', 'computed_torque', 'PD computed torque'),
+    'planar_independent_joint': lambda: _planar('planar_independent_joint', 'independent_joint',
+                                                'independent-joint PD, same design (kp = w_n^2 M_ii(q0))'),
     'single_link_step': _single_link_step,
     'mass_spring_sine': _mass_spring_sine,
     'disturbance_pd': lambda: _disturbance(False),

@@ -27,7 +27,19 @@ Definitions (per coordinate, e = reference - actual as the controller publishes 
 """
 import numpy as np
 
+from robot_control.laws import LAWS
+
 SETTLING_BAND = 0.02
+
+
+def joint_space(law):
+    """True when law `law` (a name of robot_control.laws.LAWS) has its reference and errors in joint space."""
+    return LAWS[law].tracks != 'task'
+
+
+def task_units(axes):
+    """The unit of each task axis: m for x, y, z; rad for rx, ry, rz."""
+    return tuple('rad' if a.startswith('r') else 'm' for a in axes)
 
 
 class RunData:
@@ -73,10 +85,10 @@ class RunData:
 
     @property
     def motion_units(self):
-        if self.law in ('computed_torque', 'independent_joint'):
+        if joint_space(self.law):
             units = dict(zip(self.joints, self.joint_units))
             return tuple(units[a] for a in self.motion_names)
-        return tuple('m' for _ in self.motion_names)
+        return task_units(self.motion_names)
 
     def motion_error(self):
         return self.err_pos[:, self.motion_index]
@@ -160,7 +172,7 @@ def critically_damped(t, e0, omega):
 
 
 def summarize(data, experiment, mode, duration, wall_time_s=None):
-    """The summary.json dict of a run (issue 5 keys plus context)."""
+    """The summary.json dict of a run: the metrics of the module docstring plus the run's context."""
     motion_names, units = data.motion_names, data.motion_units
     e = data.motion_error()
     last = data.window(data.t[-1] - experiment.steady_window if data.samples else None)
@@ -234,7 +246,7 @@ def plot_data(data, experiment, title=''):
            'tau_units': ['N m' if u == 'rad' else 'N' for u in data.joint_units]}
     if data.effort_limit is not None:
         out['effort_limit'] = data.effort_limit
-    if data.law in ('computed_torque', 'independent_joint'):
+    if joint_space(data.law):
         out.update(joint_names=list(data.joints), units=list(data.joint_units), q=data.q,
                    q_d=data.ref_pos, e=data.err_pos)
     elif mi:

@@ -1,7 +1,7 @@
 """Child processes of the demo and the end-to-end tests: started in process groups of their own,
 stopped by pid, also on failure, Ctrl-C, SIGTERM and interpreter exit.
 
-Every child runs with the DDS environment of DESIGN §6: ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST,
+Every child runs with the DDS environment of a private run: ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST,
 no static peers, and the ROS_DOMAIN_ID of the run (never the caller's, which may be a robot's).
 A child is a session leader (``start_new_session``), so stopping it signals its process group
 (pgid = its pid): whatever it spawned goes too, and nothing else is ever signalled.

@@ -1,12 +1,12 @@
 """The demo's own ROS side: the metrics collector, the reference publisher and the run control
 (pause/resume of the bridge, confirmations from the controller's log).
 
-Collector: raw subscriptions on a node that no executor spins. `poll()` takes every waiting
-message (serialized bytes plus the DDS source/receive timestamps) straight from the
-subscriptions, so the demo costs no executor wake-up per message; the readers' queues are deep
-(KEEP_LAST DEPTH) and acknowledgements are sent by DDS's own threads, so nothing is lost while
-the demo's Python thread is busy. Messages are deserialized once, after the run (and the
-newest of each topic once per second for the progress line).
+Both nodes are spun by one executor of the demo, rclpy's EventsExecutor. The collector keeps
+every message of the run's topics serialized, with the DDS source (publication) and reception
+timestamps (robot_control.tools.taps); its readers' queues are deep (KEEP_LAST DEPTH) and DDS's
+own threads acknowledge, so nothing is lost while the demo's Python thread is busy between two
+spins. Messages are deserialized after the run (and the newest of a topic when the progress
+line or the run's end asks for it).
 """
 import time
 
@@ -24,8 +24,10 @@ from trajectory_msgs.msg import JointTrajectory
 
 from robot_control.ros import conversions
 from robot_control.ros.qos import REFERENCE_QOS
+from robot_control.tools.taps import Tap, spin_for
 
 DEPTH = 10000
+SPIN_ROUND = 0.005    # s, one round of RunControl.spin_until
 COLLECT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
 ROSOUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
@@ -57,36 +59,20 @@ RUN_TOPICS = {
 
 
 class Collector:
-    """Raw, polled subscriptions to the run's topics (see the module docstring)."""
+    """The run's topics (COLLECT), serialized, with their DDS timestamps; its node is spun by `executor`."""
 
-    def __init__(self, context, name='demo_collector'):
+    def __init__(self, context, executor, name='demo_collector'):
         self.node = Node(name, context=context, enable_rosout=False, start_parameter_services=False)
-        self.subs = {}
-        self.raw = {topic: [] for topic in COLLECT}     # topic -> [(bytes, source_ns, received_ns)]
-        for topic, cls in COLLECT.items():
-            self.subs[topic] = self.node.create_subscription(cls, topic, _ignore, COLLECT_QOS, raw=True)
-
-    def poll(self):
-        """Take every waiting message; returns how many."""
-        n = 0
-        for topic, sub in self.subs.items():
-            cls = COLLECT[topic]
-            out = self.raw[topic]
-            with sub.handle:
-                while True:
-                    taken = sub.handle.take_message(cls, True)
-                    if taken is None:
-                        break
-                    data, info = taken
-                    out.append((data, info['source_timestamp'], info['received_timestamp']))
-                    n += 1
-        return n
+        self.tap = Tap(self.node, COLLECT, COLLECT_QOS)
+        self.raw = self.tap.rows     # topic -> [(bytes, source_ns, received_ns)]
+        self.executor = executor
+        executor.add_node(self.node)
 
     def publishers(self, topic):
-        return self.subs[topic].get_publisher_count()
+        return self.tap.publishers(topic)
 
     def count(self, topic):
-        return len(self.raw[topic])
+        return self.tap.count(topic)
 
     def latest(self, topic):
         """The newest message of `topic`, deserialized, or None."""
@@ -103,15 +89,12 @@ class Collector:
         return None if msg is None else conversions.stamp_to_ns(msg.header.stamp)
 
     def destroy(self):
+        self.executor.remove_node(self.node)
         self.node.destroy_node()
 
 
-def _ignore(_msg):
-    """Callback of the polled subscriptions (never called: no executor spins their node)."""
-
-
 class RunControl:
-    """The spun node of the demo: reference publishers, the bridge's pause service, the controller's log."""
+    """The demo's control node: reference publishers, the bridge's pause service, the controller's log."""
 
     def __init__(self, context, executor, name='demo'):
         self.node = Node(name, context=context, start_parameter_services=False)
@@ -127,11 +110,12 @@ class RunControl:
     def _on_log(self, msg):
         self.log.append((msg.name, int(msg.level), msg.msg))
 
-    def spin(self, timeout=0.0):
-        self.executor.spin_once(timeout_sec=timeout)
+    def spin(self, duration=0.0):
+        """Run the callbacks that come within `duration` s."""
+        spin_for(self.executor, duration)
 
     def spin_until(self, predicate, timeout, poll=None, what='condition'):
-        """Spin until predicate() or TimeoutError after `timeout` s of wall time; poll() each round."""
+        """Spin until predicate() or TimeoutError after `timeout` s of wall time; poll() every SPIN_ROUND s."""
         deadline = time.monotonic() + timeout
         while True:
             if poll is not None:
@@ -141,7 +125,7 @@ class RunControl:
                 return value
             if time.monotonic() >= deadline:
                 raise TimeoutError(f'timed out after {timeout:g} s waiting for {what}')
-            self.executor.spin_once(timeout_sec=0.01)
+            spin_for(self.executor, SPIN_ROUND)
 
     def subscribed(self, topic, node_name):
         """True when node `node_name` subscribes to `topic` (graph)."""

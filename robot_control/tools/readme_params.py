@@ -1,66 +1,35 @@
-"""Regenerate the README's parameter tables from the nodes' own declarations.
+"""Regenerate the README's parameter tables from the nodes' own parameter tables.
 
     python -m robot_control.tools.readme_params [--check] [README.md]
 
 The tables sit between `<!-- params:NODE:begin -->` and `<!-- params:NODE:end -->` markers;
-`--check` exits 1 when the README differs from the code (a test runs it).
+`--check` exits 1 when the README differs from the code (a test runs it). Defaults are those of
+the polar_two_link scenario (rows of its own show their own default).
 """
 import argparse
-import math
 import re
 import sys
 
-from robot_control.ros import params
+from robot_control.ros import param_table, params
 from sim_bridge import parameters as bridge_params
 
-HEADER = '| parameter | type | default | meaning, units | bounds | set at run time |\n|---|---|---|---|---|---|\n'
+#: node -> its parameter table
+TABLES = {'controller': params.TABLE, 'sim_bridge': bridge_params.TABLE}
+SEED = {'scenario': 'polar_two_link'}
 
 
-def _value(v):
-    if isinstance(v, float) and math.isinf(v):
-        return '.inf'
-    if isinstance(v, (list, tuple)):
-        return '[' + ', '.join(_value(x) for x in v) + ']'
-    if isinstance(v, str):
-        return f"'{v}'"
-    return str(v).lower() if isinstance(v, bool) else str(v)
-
-
-def _cell(text):
-    return str(text).replace('|', '\\|').replace('\n', ' ')
-
-
-def controller_rows():
-    """Rows for the controller node, defaults of the polar_two_link scenario for model_params.*."""
-    rows = [params.scenario_spec(), params.model_spec('polar_two_link')]
-    rows += params.model_param_specs('polar_two_link') + params.specs({})
-    return [(s.name, s.type.name.lower(), _value(s.default), s.description, s.bounds,
-             'no' if s.read_only else 'yes') for s in rows]
-
-
-def bridge_rows():
-    """Rows for the sim_bridge node, defaults of the polar_two_link scenario."""
-    name = 'polar_two_link'
-    specs = bridge_params.robot_specs() + [bridge_params.joints_spec(name)]
-    specs += bridge_params.specs(name, len(bridge_params.joints_spec(name).default))
-    return [(s.name, s.kind, _value(s.default), s.description, '', 'no' if s.read_only else 'yes')
-            for s in specs]
-
-
-def table(rows):
-    return HEADER + ''.join('| ' + ' | '.join(_cell(c) for c in row) + ' |\n' for row in rows)
-
-
-TABLES = {'controller': controller_rows, 'sim_bridge': bridge_rows}
+def rows(node):
+    """(parameter, type, default, meaning, bounds, set at run time) rows of `node`'s table."""
+    return TABLES[node].markdown_rows(**SEED)
 
 
 def render(text):
     """`text` with every parameter table replaced by the one generated from the code."""
-    for node, rows in TABLES.items():
+    for node in TABLES:
         pattern = re.compile(rf'(<!-- params:{node}:begin -->\n).*?(<!-- params:{node}:end -->)', re.S)
         if not pattern.search(text):
             raise ValueError(f'README: no <!-- params:{node}:begin/end --> markers')
-        text = pattern.sub(lambda m: m.group(1) + table(rows()) + m.group(2), text)
+        text = pattern.sub(lambda m: m.group(1) + param_table.markdown(rows(node)) + m.group(2), text)
     return text
 
 

@@ -13,8 +13,9 @@ nanoseconds, taken in the subscription callback -- as `ros2 bag record` does. Wi
 Header stamps are untouched inside the messages.
 
 Cost in the executor: subscriptions are `raw=True`, so a callback receives the serialized CDR bytes
-(no deserialization) and only appends `(connection, t_ns, bytes)` to a queue; a writer thread
-drains the queue into the bag. The executor never waits on disk.
+(no deserialization) and only appends `(topic, t_ns, bytes)` to a queue; a writer thread drains
+the queue into the bag, so the executor never waits on disk. The command line spins rclpy's
+EventsExecutor, which hands each message from C++ to the callback.
 
 Library use (the node is spun by the caller's executor)::
 
@@ -22,7 +23,8 @@ Library use (the node is spun by the caller's executor)::
         executor.spin_until_future_complete(done)
     data = read_bag('out/bag')          # {'/joint_states': [(t_ns, msg), ...], ...}
 
-Command line (stops on --duration, Ctrl-C or SIGTERM; the bag is always closed)::
+Command line, also the `record` console script (stops on --duration, Ctrl-C or SIGTERM; the bag
+is always closed; prints each topic's matched publishers, then the message count per topic)::
 
     python -m robot_control.record --output DIR [--duration S] [--all | TOPIC[:TYPE] ...]
 """
@@ -30,8 +32,8 @@ import argparse
 import atexit
 import collections
 import importlib
+import math
 import os
-import itertools
 import re
 import shutil
 import signal
@@ -43,6 +45,8 @@ from pathlib import Path
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from robot_control.tools.taps import WithMessageInfo, spin_for, spin_until_idle
 
 BAG_VERSION = 9  # rosbag2 metadata version written by Jazzy (0.26.x)
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
@@ -165,6 +169,116 @@ def _hidden(topic):
     return any(part.startswith('_') for part in topic.split('/') if part)
 
 
+# ---------------------------------------------------------------- the bag
+
+class BagWriter:
+    """A rosbag2 directory written by a thread of its own: the executor never waits on disk.
+
+    `queue` takes `(topic, t_ns, data)` items (serialized CDR bytes); a topic's connection, which
+    add() queues, precedes its messages. The thread owns the rosbags Writer from open() to close()
+    (sqlite3 objects must stay in the thread that made them) and writes what is queued every
+    20 ms. `counts` {topic: messages written} and `types` {topic: msgtype} grow as it goes.
+    """
+
+    def __init__(self, path, storage, typestore, log):
+        self.path = Path(path)
+        self.storage = storage
+        self.typestore = typestore
+        self.queue = collections.deque()  # (topic, t_ns, bytes) or (_ADD, topic, (msgtype, qos))
+        self.types = {}
+        self.counts = {}
+        self.error = None        # what stopped the writing (disk full, ...), reported by the recorder
+        self._log = log
+        self._wake = threading.Event()
+        self._opened = threading.Event()
+        self._closing = False
+        self._thread = None
+
+    def remove_old(self):
+        """Delete the rosbag2 directory at `path`; ValueError if it holds anything but a bag's files."""
+        entries = list(self.path.iterdir()) if self.path.is_dir() else None
+        looks_like_bag = entries is not None and all(
+            e.is_file() and (e.name == 'metadata.yaml' or e.suffix in ('.mcap', '.db3', '.zstd', '.tmp'))
+            for e in entries)
+        if not looks_like_bag:
+            raise ValueError(f'bag_dir: {self.path} exists and is not a rosbag2 directory; not replacing it')
+        shutil.rmtree(self.path)
+
+    def open(self):
+        """Create the bag and start the writer thread; raises what rosbags raised."""
+        writer = Writer(self.path, version=BAG_VERSION, storage_plugin=STORAGES[self.storage])
+        writer.set_custom_data('recorder', 'robot_control.record')
+        writer.set_custom_data('timestamps', 'receive time, node clock, ns')
+        self._thread = threading.Thread(target=self._write_loop, args=(writer,), name='recorder-writer',
+                                        daemon=True)
+        self._thread.start()
+        self._opened.wait()
+        if self.error is not None:
+            self._thread.join()
+            raise self.error
+        atexit.register(self.close)  # a forgotten stop() still leaves a readable bag
+
+    def add(self, topic, msgtype, offered=()):
+        """Queue the connection of `topic` (once), with the QoS profiles its publishers offered."""
+        if topic in self.types:
+            return
+        ensure_type(self.typestore, msgtype)
+        self.types[topic] = msgtype
+        self.counts[topic] = 0
+        self.queue.append((_ADD, topic, (msgtype, list(offered))))
+
+    def queued(self):
+        """Messages queued but not written yet."""
+        return sum(1 for item in list(self.queue) if item[0] is not _ADD)
+
+    def close(self):
+        """Let the thread write the queue and close the bag; also run at interpreter exit."""
+        self._closing = True
+        atexit.unregister(self.close)
+        self._wake.set()
+        thread, self._thread = self._thread, None
+        if thread is not None:
+            thread.join()
+
+    def _drain(self, writer, conns):
+        queue = self.queue
+        counts = self.counts
+        write = writer.write
+        while queue:
+            item = queue.popleft()
+            if item[0] is _ADD:
+                _, topic, (msgtype, offered) = item
+                conns[topic] = writer.add_connection(topic, msgtype, typestore=self.typestore,
+                                                     offered_qos_profiles=offered)
+            else:
+                topic, t_ns, data = item
+                write(conns[topic], t_ns, data)
+                counts[topic] += 1
+
+    def _write_loop(self, writer):
+        try:
+            writer.open()
+        except BaseException as exc:
+            self.error = exc
+            self._opened.set()
+            return
+        self._opened.set()
+        conns = {}
+        try:
+            while not self._closing:
+                self._wake.wait(0.02)
+                self._drain(writer, conns)
+            self._drain(writer, conns)
+            writer.close()
+        except BaseException as exc:  # disk full, ...: stop writing, report at stop()
+            self.error = exc
+            self._log.error(f'recorder: writing {self.path} failed: {exc!r}')
+            try:
+                writer.close()
+            except BaseException:
+                writer.abort()
+
+
 # ---------------------------------------------------------------- the recorder
 
 class Recorder:
@@ -183,34 +297,30 @@ class Recorder:
         storage: 'mcap' (default, Jazzy's) or 'sqlite3'.
         depth: subscription queue depth (KEEP_LAST); messages beyond it are dropped by DDS if the
             executor falls that far behind.
-        burst: messages a callback takes directly from its subscription after the one the executor
-            handed it (0: one message per executor wake-up, several times slower in rclpy).
         overwrite: replace `bag_dir` if it is an existing rosbag2 directory (never anything else).
         typestore: rosbags typestore used for definitions/hashes (default: ROS2_JAZZY).
 
     start() opens the bag and subscribes (explicitly typed topics at once, untyped ones when they are
-    on the graph); stop() unsubscribes, writes what is queued and closes the bag (idempotent, returns
-    {topic: message count}). Also a context manager. The subscription QoS follows the publishers
-    seen, as rosbag2 does: best effort if any publisher is best effort, transient local if all are.
-    All bag I/O happens in one writer thread (sqlite3 objects must stay in their thread).
+    on the graph); stop() lets the node's executor hand over what DDS has delivered, unsubscribes,
+    writes what is queued and closes the bag (idempotent, returns {topic: message count}). Also a
+    context manager. The subscription QoS follows the publishers seen, as rosbag2 does: best
+    effort if any publisher is best effort, transient local if all are. Spin the node with rclpy's
+    EventsExecutor for high rates (see robot_control.tools.taps).
     """
 
     def __init__(self, node, bag_dir, topics=(), *, all_topics=False, exclude=None, discovery_timeout=5.0,
-                 discovery_period=0.1, storage=DEFAULT_STORAGE, depth=10000, burst=256, overwrite=False,
-                 typestore=None):
+                 discovery_period=0.1, storage=DEFAULT_STORAGE, depth=10000, overwrite=False, typestore=None):
         if storage not in STORAGES:
             raise ValueError(f'storage: expected one of {sorted(STORAGES)}, got {storage!r}')
         if isinstance(topics, str):
             topics = [topics]
         self.node = node
         self.path = Path(bag_dir)
-        self.storage = storage
         self.all_topics = bool(all_topics)
         self.exclude = re.compile(exclude) if exclude else None
         self.discovery_timeout = float(discovery_timeout)
         self.discovery_period = float(discovery_period)
         self.depth = int(depth)
-        self.burst = int(burst)
         self.overwrite = bool(overwrite)
         self.typestore = typestore if typestore is not None else get_typestore(Stores.ROS2_JAZZY)
         self._requested = {}  # absolute name -> explicit type or None
@@ -220,21 +330,18 @@ class Recorder:
         if not self._requested and not self.all_topics:
             raise ValueError('topics: give at least one topic or all_topics=True')
         self._log = node.get_logger()
-        self._clock = node.get_clock()
+        self._bag = BagWriter(self.path, storage, self.typestore, self._log)
         self._lock = threading.RLock()  # guards the subscription tables (executor thread vs. stop())
-        self._queue = collections.deque()  # (topic, t_ns, bytes) or (_ADD, topic, (msgtype, qos))
-        self._wake = threading.Event()
-        self._opened = threading.Event()
-        self._thread = None
         self._timer = None
-        self._error = None
         self._running = False
         self._closed = False
+        self._received = 0
+        self._until_ns = math.inf   # messages received (system clock, ns) after this are not recorded
         self._subs = {}         # topic -> Subscription
         self._best_effort = {}  # topic -> bool (reliability of our subscription)
         self._failed = set()    # topics --all cannot record (no definition or class): not retried
-        self.types = {}         # topic -> msgtype, every topic with a connection in the bag
-        self.counts = {}        # topic -> messages written
+        self.types = self._bag.types    # topic -> msgtype, every topic with a connection in the bag
+        self.counts = self._bag.counts  # topic -> messages written
         self.t_start = None     # monotonic s at start() / stop()
         self.t_stop = None
 
@@ -244,36 +351,20 @@ class Recorder:
         """Open the bag, resolve topics (waiting at most discovery_timeout for untyped ones), subscribe."""
         if self._running or self._closed:
             raise RuntimeError('Recorder.start: already started')
-        if self.path.exists() and self.overwrite:
-            self._remove_old_bag()
-        writer = Writer(self.path, version=BAG_VERSION, storage_plugin=STORAGES[self.storage])
-        writer.set_custom_data('recorder', 'robot_control.record')
-        writer.set_custom_data('timestamps', 'receive time, node clock, ns')
-        self._thread = threading.Thread(target=self._write_loop, args=(writer,), name='recorder-writer',
-                                        daemon=True)
-        self._thread.start()
-        self._opened.wait()
-        if self._error is not None:
-            self._thread.join()
+        try:
+            if self.path.exists() and self.overwrite:
+                self._bag.remove_old()
+            self._bag.open()
+        except BaseException:
             self._closed = True
-            raise self._error
+            raise
         self._running = True
         self.t_start = time.monotonic()
-        atexit.register(self._close_writer)  # a forgotten stop() still leaves a readable bag
         try:
             for topic, msgtype in self._requested.items():
                 if msgtype is not None:
                     self._add_topic(topic, msgtype)
-            deadline = time.monotonic() + self.discovery_timeout
-            idle = threading.Event()
-            while True:
-                self._discover()
-                if not any(self._requested[t] is None for t in self.pending) or time.monotonic() >= deadline:
-                    break
-                idle.wait(0.02)  # the graph cache is filled by the RMW's own threads
-            for topic in self.pending:
-                self._log.warning(f'{topic}: not on the graph after {self.discovery_timeout:g} s; '
-                                  'recording it once a publisher appears')
+            self._wait_for_untyped_topics()
             from rclpy.clock import Clock, ClockType
             self._timer = self.node.create_timer(self.discovery_period, self._discover_safe,
                                                  clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -282,19 +373,27 @@ class Recorder:
             raise
         return self
 
-    def stop(self):
-        """Unsubscribe, write what is queued, close the bag. Safe to call twice. Returns counts.
+    def _wait_for_untyped_topics(self):
+        deadline = time.monotonic() + self.discovery_timeout
+        idle = threading.Event()
+        while True:
+            self._discover()
+            if not any(self._requested[t] is None for t in self.pending) or time.monotonic() >= deadline:
+                break
+            idle.wait(0.02)  # the graph cache is filled by the RMW's own threads
+        for topic in self.pending:
+            self._log.warning(f'{topic}: not on the graph after {self.discovery_timeout:g} s; '
+                              'recording it once a publisher appears')
 
-        The bag is closed even if the node or its context is already gone.
-        """
+    def stop(self):
+        """Record what this process received before the call, unsubscribe, write what is queued, close
+        the bag. Safe to call twice. Returns counts. The bag is closed even if the node or its context
+        is already gone."""
         if self._closed:
             return dict(self.counts)
-        from rclpy.exceptions import InvalidHandle
         self._running = False
-        try:
-            self._take_waiting(dict(self._subs))   # before closing: the writer ends once closed, queue empty
-        except (InvalidHandle, RuntimeError) as exc:  # context already shut down: nothing left to take
-            self._log.debug(f'recorder: taking the waiting messages: {exc!r}')
+        self._until_ns = time.time_ns()   # the reception clock of MessageInfo: what comes later is not recorded
+        self._hand_over_waiting()         # before unsubscribing: a subscription's queue goes with it
         with self._lock:
             self._closed = True
             subs, self._subs = dict(self._subs), {}
@@ -307,36 +406,23 @@ class Recorder:
             self._log.debug(f'recorder: unsubscribing: {exc!r}')
         finally:
             self._timer = None
-            self._close_writer()
+            self._bag.close()
         self.t_stop = time.monotonic()
-        if self._error is not None:
-            raise RuntimeError(f'recorder: writing {self.path} failed: {self._error!r}') from self._error
+        if self._bag.error is not None:
+            raise RuntimeError(f'recorder: writing {self.path} failed: {self._bag.error!r}') from self._bag.error
         return dict(self.counts)
 
-    def _take_waiting(self, subs):
-        """Queue what DDS has delivered but the executor has not handed over yet (an executor that
-        falls behind under load would otherwise lose the run's last messages at stop())."""
-        for topic, sub in subs.items():
-            self._take(sub, _message_class(self.types[topic]), topic)
-
-    def _take(self, sub, cls, topic, limit=None):
-        """Queue up to `limit` (None: all) messages waiting on `sub`, taken directly from DDS."""
-        append, now = self._queue.append, self._clock.now
-        with sub.handle:
-            for _ in itertools.repeat(None) if limit is None else range(limit):
-                taken = sub.handle.take_message(cls, True)
-                if taken is None:
-                    return
-                append((topic, now().nanoseconds, taken[0]))
-
-    def _close_writer(self):
-        """Let the writer thread write the queue and close the bag; also run at interpreter exit."""
-        self._closed = True
-        atexit.unregister(self._close_writer)
-        self._wake.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join()
+    def _hand_over_waiting(self):
+        """Spin the node's executor until it hands over no more messages received before stop() (at
+        most 1 s): an executor that fell behind under load would otherwise lose the run's last
+        messages. Call stop() outside that executor's callbacks, or this is skipped."""
+        executor = self.node.executor
+        if executor is None or not self._subs:
+            return
+        try:
+            spin_until_idle(executor, lambda: self._received)
+        except Exception as exc:  # context shut down, or called from inside a callback of the executor
+            self._log.debug(f'recorder: handing over the waiting messages: {exc!r}')
 
     def __enter__(self):
         return self.start()
@@ -376,56 +462,33 @@ class Recorder:
 
     def queued(self):
         """Messages received but not written yet."""
-        return sum(1 for item in list(self._queue) if item[0] is not _ADD)
+        return self._bag.queued()
 
     @property
     def received(self):
-        """Messages received so far (written or queued); may lag by the one being written."""
-        return self.message_count + self.queued()
+        """Messages received so far (written or queued)."""
+        return self._received
 
     # -- internals
 
-    def _remove_old_bag(self):
-        entries = list(self.path.iterdir()) if self.path.is_dir() else None
-        looks_like_bag = entries is not None and all(
-            e.is_file() and (e.name == 'metadata.yaml' or e.suffix in ('.mcap', '.db3', '.zstd', '.tmp'))
-            for e in entries)
-        if not looks_like_bag:
-            raise ValueError(f'bag_dir: {self.path} exists and is not a rosbag2 directory; not replacing it')
-        shutil.rmtree(self.path)
-
     def _add_topic(self, topic, msgtype, offered=()):
-        """Queue the bag connection for `topic` (once); it precedes the topic's messages in the queue."""
-        if topic in self.types:
-            return
+        """Give `topic` a connection in the bag (once), ahead of its messages."""
         _message_class(msgtype)  # fail here, before the bag gets a connection it cannot fill
-        ensure_type(self.typestore, msgtype)
-        self.types[topic] = msgtype
-        self.counts[topic] = 0
-        self._queue.append((_ADD, topic, (msgtype, list(offered))))
+        self._bag.add(topic, msgtype, offered)
 
     def _subscribe(self, topic, best_effort, transient_local):
-        from rclpy.exceptions import InvalidHandle
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST, depth=self.depth,
             reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if transient_local else DurabilityPolicy.VOLATILE)
-        cls = _message_class(self.types[topic])
-        append = self._queue.append
-        now = self._clock.now
-        burst = self.burst
-        holder = []
+        append = self._bag.queue.append
+        now = self.node.get_clock().now
 
-        def callback(data):  # raw=True: `data` is the serialized CDR message (bytes)
-            append((topic, now().nanoseconds, data))
-            # The executor hands over one message per wait-set pass (~0.3 ms of rclpy overhead);
-            # take what else is already waiting on this subscription directly, up to `burst`.
-            if burst:
-                try:
-                    self._take(holder[0], cls, topic, burst)
-                except InvalidHandle:  # destroyed by stop() meanwhile
-                    pass
+        def keep(data, info):  # raw=True: `data` is the serialized CDR message (bytes)
+            if info['received_timestamp'] <= self._until_ns:
+                append((topic, now().nanoseconds, data))
+                self._received += 1
 
         with self._lock:
             if self._closed:
@@ -433,9 +496,8 @@ class Recorder:
             old = self._subs.get(topic)
             if old is not None:
                 self.node.destroy_subscription(old)
-            sub = self.node.create_subscription(cls, topic, callback, qos, raw=True)
-            holder.append(sub)
-            self._subs[topic] = sub
+            self._subs[topic] = self.node.create_subscription(_message_class(self.types[topic]), topic,
+                                                              WithMessageInfo(keep), qos, raw=True)
             self._best_effort[topic] = best_effort
 
     def _discover_safe(self):
@@ -453,12 +515,7 @@ class Recorder:
             graph = dict(self.node.get_topic_names_and_types())
         except Exception:  # context shutting down
             return
-        wanted = dict(self._requested)
-        if self.all_topics:
-            for topic in graph:
-                if topic not in wanted and not _hidden(topic) and not (self.exclude and self.exclude.search(topic)):
-                    wanted[topic] = None
-        for topic, explicit in wanted.items():
+        for topic, explicit in self._wanted(graph).items():
             if topic in self._failed:
                 continue
             infos = self.node.get_publishers_info_by_topic(topic) if topic in graph else []
@@ -467,76 +524,47 @@ class Recorder:
                 if not self._best_effort[topic] and any(int(i.qos_profile.reliability) == 2 for i in infos):
                     self._log.warning(f'{topic}: best-effort publisher seen, resubscribing best effort')
                     self._subscribe(topic, True, False)
-                continue
-            if explicit is None and not infos:
-                continue  # type unknown until a publisher shows up
-            msgtype = explicit
-            if msgtype is None:
-                types = graph.get(topic, [])
-                if len(types) > 1:
-                    self._log.warning(f'{topic}: several types {types}; recording {types[0]}')
-                msgtype = normalize_type(types[0])
-            matching = [i for i in infos if normalize_type(i.topic_type) == msgtype]
-            if explicit is not None and infos and not matching:
-                self._log.warning(f'{topic}: publishers offer {sorted({i.topic_type for i in infos})}, '
-                                  f'not {msgtype}; nothing will be recorded until one does')
-            try:
-                self._add_topic(topic, msgtype, [_offered_qos(i.qos_profile) for i in matching])
-            except ValueError as exc:
-                if explicit is not None:
-                    raise
-                self._log.error(f'{topic}: cannot record: {exc}')
-                self._failed.add(topic)
-                continue
-            announced = {h for h in (str(i.topic_type_hash) for i in matching)
-                         if h.startswith('RIHS01_') and h[len('RIHS01_'):].strip('0')}  # 0...0: unknown
-            ours = self.typestore.hash_rihs01(msgtype)
-            if announced and ours not in announced:
-                self._log.warning(f'{topic}: type hash {ours} differs from the publishers\' {sorted(announced)}')
-            best_effort = any(int(i.qos_profile.reliability) == 2 for i in matching)
-            transient_local = bool(matching) and all(int(i.qos_profile.durability) == 1 for i in matching)
-            self._subscribe(topic, best_effort, transient_local)
-            if self.all_topics and topic not in self._requested:
-                self._log.info(f'recording {topic} [{msgtype}]')
+            elif explicit is not None or infos:  # an untyped topic waits for a publisher to tell its type
+                self._start_topic(topic, explicit, infos, graph.get(topic, []))
 
-    def _drain(self, writer, conns):
-        queue = self._queue
-        counts = self.counts
-        write = writer.write
-        while queue:
-            item = queue.popleft()
-            if item[0] is _ADD:
-                _, topic, (msgtype, offered) = item
-                conns[topic] = writer.add_connection(topic, msgtype, typestore=self.typestore,
-                                                     offered_qos_profiles=offered)
-            else:
-                topic, t_ns, data = item
-                write(conns[topic], t_ns, data)
-                counts[topic] += 1
+    def _wanted(self, graph):
+        """{topic: explicit type or None} to record: the requested ones, and with all_topics the graph's."""
+        wanted = dict(self._requested)
+        if self.all_topics:
+            for topic in graph:
+                if topic not in wanted and not _hidden(topic) and not (self.exclude and self.exclude.search(topic)):
+                    wanted[topic] = None
+        return wanted
 
-    def _write_loop(self, writer):
-        """Writer thread: owns the rosbags Writer from open() to close()."""
+    def _start_topic(self, topic, explicit, infos, graph_types):
+        """Give `topic` its bag connection and subscription, with the QoS of the publishers `infos`."""
+        msgtype = explicit
+        if msgtype is None:
+            if len(graph_types) > 1:
+                self._log.warning(f'{topic}: several types {graph_types}; recording {graph_types[0]}')
+            msgtype = normalize_type(graph_types[0])
+        matching = [i for i in infos if normalize_type(i.topic_type) == msgtype]
+        if explicit is not None and infos and not matching:
+            self._log.warning(f'{topic}: publishers offer {sorted({i.topic_type for i in infos})}, '
+                              f'not {msgtype}; nothing will be recorded until one does')
         try:
-            writer.open()
-        except BaseException as exc:
-            self._error = exc
-            self._opened.set()
+            self._add_topic(topic, msgtype, [_offered_qos(i.qos_profile) for i in matching])
+        except ValueError as exc:
+            if explicit is not None:
+                raise
+            self._log.error(f'{topic}: cannot record: {exc}')
+            self._failed.add(topic)
             return
-        self._opened.set()
-        conns = {}
-        try:
-            while not self._closed:
-                self._wake.wait(0.02)
-                self._drain(writer, conns)
-            self._drain(writer, conns)
-            writer.close()
-        except BaseException as exc:  # disk full, ...: stop writing, report at stop()
-            self._error = exc
-            self._log.error(f'recorder: writing {self.path} failed: {exc!r}')
-            try:
-                writer.close()
-            except BaseException:
-                writer.abort()
+        announced = {h for h in (str(i.topic_type_hash) for i in matching)
+                     if h.startswith('RIHS01_') and h[len('RIHS01_'):].strip('0')}  # 0...0: unknown
+        ours = self.typestore.hash_rihs01(msgtype)
+        if announced and ours not in announced:
+            self._log.warning(f'{topic}: type hash {ours} differs from the publishers\' {sorted(announced)}')
+        best_effort = any(int(i.qos_profile.reliability) == 2 for i in matching)
+        transient_local = bool(matching) and all(int(i.qos_profile.durability) == 1 for i in matching)
+        self._subscribe(topic, best_effort, transient_local)
+        if self.all_topics and topic not in self._requested:
+            self._log.info(f'recording {topic} [{msgtype}]')
 
 
 # ---------------------------------------------------------------- reading bags
@@ -609,9 +637,11 @@ def _parser():
 def main(args=None):
     """Entry point of `python -m robot_control.record` / the `record` console script."""
     import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.node import Node
     from rclpy.signals import SignalHandlerOptions
     from rclpy.utilities import remove_ros_args
+    from robot_control.ros.spin import make_executor
 
     argv = sys.argv if args is None else ['record', *args]
     opts = _parser().parse_args(remove_ros_args(argv)[1:])
@@ -626,19 +656,13 @@ def main(args=None):
         return 2
 
     stop = threading.Event()
-
-    def on_signal(signum, _frame):
-        stop.set()
-
-    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    old = {s: signal.signal(s, lambda _signum, _frame: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-    node = None
-    recorder = None
-    executor = None
+    node = recorder = executor = None
+    counts = {}
     try:
-        from rclpy.node import Node
         node = Node(opts.node_name)
-        executor = SingleThreadedExecutor()
+        executor = make_executor('events')
         executor.add_node(node)
         recorder = Recorder(node, opts.output, opts.topics, all_topics=opts.all, exclude=opts.exclude,
                             discovery_timeout=opts.discovery_timeout, storage=opts.storage,
@@ -647,22 +671,10 @@ def main(args=None):
         print(f'record: writing {opts.output} ({opts.storage}); topics: '
               f'{", ".join(recorder.subscribed) or "(waiting)"}'
               + (f'; pending: {", ".join(recorder.pending)}' if recorder.pending else ''), flush=True)
-        deadline = None if opts.duration is None else time.monotonic() + opts.duration
-        matched = {}
-        next_check = 0.0
-        while not stop.is_set() and (deadline is None or time.monotonic() < deadline):
-            timeout = 0.1 if deadline is None else max(0.0, min(0.1, deadline - time.monotonic()))
-            executor.spin_once(timeout_sec=timeout)
-            if time.monotonic() >= next_check:  # tell a parent process when publishers match
-                next_check = time.monotonic() + 0.1
-                for topic, count in recorder.publisher_counts().items():
-                    if count != matched.get(topic, 0):
-                        print(f'record: {topic} matched {count} publisher(s)', flush=True)
-                    matched[topic] = count
+        _record(executor, recorder, stop, opts.duration)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        counts = {}
         try:
             if recorder is not None:
                 counts = recorder.stop()
@@ -674,12 +686,28 @@ def main(args=None):
             rclpy.try_shutdown()
             for s, h in old.items():
                 signal.signal(s, h)
+    _report(opts.output, recorder, counts)
+    return 0
+
+
+def _record(executor, recorder, stop, duration=None):
+    """Spin until `stop` is set or `duration` s have passed; print each change of a topic's matched
+    publishers (a parent process waits for these lines before it starts what must be recorded)."""
+    deadline = None if duration is None else time.monotonic() + duration
+    matched = {}
+    while not stop.is_set() and (deadline is None or time.monotonic() < deadline):
+        spin_for(executor, 0.1 if deadline is None else max(0.0, min(0.1, deadline - time.monotonic())))
+        for topic, count in recorder.publisher_counts().items():
+            if count != matched.get(topic, 0):
+                print(f'record: {topic} matched {count} publisher(s)', flush=True)
+            matched[topic] = count
+
+
+def _report(output, recorder, counts):
     elapsed = (recorder.t_stop - recorder.t_start) if recorder and recorder.t_start else 0.0
-    total = sum(counts.values())
     for topic in sorted(counts):
         print(f'  {topic:40s} {recorder.types[topic]:40s} {counts[topic]:8d}')
-    print(f'record: closed {opts.output}: {total} messages in {elapsed:.2f} s', flush=True)
-    return 0
+    print(f'record: closed {output}: {sum(counts.values())} messages in {elapsed:.2f} s', flush=True)
 
 
 if __name__ == '__main__':

@@ -50,3 +50,50 @@ def read(urdf):
     path = resolve(text)
     with open(path, encoding='utf-8') as f:
         return f.read(), path
+
+
+def with_absolute_meshes(xml, base):
+    """URDF text `xml` whose relative mesh file names are made absolute against directory `base` (the
+    original file's), so the text can be written and loaded anywhere."""
+    import xml.etree.ElementTree as ET
+    root = ET.fromstring(xml.lstrip())
+    for mesh in root.iter('mesh'):
+        name = mesh.get('filename', '')
+        if name and '://' not in name and not os.path.isabs(name):
+            mesh.set('filename', os.path.join(base, name))
+    return ET.tostring(root, encoding='unicode')
+
+
+#: radius of the solid sphere a payload is modelled as, m (its rotational inertia 2/5 m r^2)
+PAYLOAD_RADIUS = 0.02
+
+
+def with_payload(xml, tip, mass, com):
+    """URDF text `xml` with a payload on link `tip`: a solid sphere of `mass` kg (radius PAYLOAD_RADIUS)
+    centred at `com` (3,) m in the tip link's frame, as a link '<tip>_payload' on a fixed joint.
+
+    The controller's model (robot_control.models.UrdfModel) and the simulated robot (sim_bridge.world)
+    both load this text, so a payload means the same to both. ArgumentError naming tip, payload.mass or
+    payload.com."""
+    import xml.etree.ElementTree as ET
+
+    from robot_control import validation
+    mass = validation.scalar('payload.mass', mass, positive=True)
+    com = validation.vector('payload.com', com, 3)
+    root = ET.fromstring(xml.lstrip())
+    if root.find(f"link[@name='{tip}']") is None:
+        raise ArgumentError('tip', f'no link {tip!r} to carry the payload')
+    name = f'{tip}_payload'
+    inertia = 0.4 * mass * PAYLOAD_RADIUS ** 2
+    xyz = ' '.join(repr(float(v)) for v in com)
+    link = ET.SubElement(root, 'link', name=name)
+    inertial = ET.SubElement(link, 'inertial')
+    ET.SubElement(inertial, 'origin', xyz=xyz, rpy='0 0 0')
+    ET.SubElement(inertial, 'mass', value=repr(mass))
+    ET.SubElement(inertial, 'inertia', ixx=repr(inertia), ixy='0', ixz='0', iyy=repr(inertia), iyz='0',
+                  izz=repr(inertia))
+    joint = ET.SubElement(root, 'joint', name=f'{name}_joint', type='fixed')
+    ET.SubElement(joint, 'parent', link=tip)
+    ET.SubElement(joint, 'child', link=name)
+    ET.SubElement(joint, 'origin', xyz='0 0 0', rpy='0 0 0')
+    return ET.tostring(root, encoding='unicode')

@@ -56,7 +56,7 @@ RTF = 0.5
 
 def _controller_parameter_names():
     from robot_control.ros import params
-    return {s.name for s in params.specs({})}
+    return set(params.TABLE.defaults())
 
 
 #: the lost-contact guard wired into the controller (proposal in /tmp/robustness_proposals.diff)
@@ -895,8 +895,8 @@ class BridgeRig:
                             np.array(msg.velocity), np.array(msg.effort)))
 
     def counts(self):
-        b = self.node
-        return b._mapper.accepted, b._mapper.rejected_total, b._gate.late, b._gate.future   # white-box accounting
+        m, g = self.node.loop.mapper, self.node.loop.gate
+        return m.accepted, m.rejected_total, g.late, g.future   # white-box accounting
 
     def expected(self):
         return self.states[-1][0]
@@ -952,7 +952,7 @@ def _check_bridge_answer(rig, bad, delta):
     assert sum(delta) == 1, (delta, bad)
     if bad.must_reject:
         assert rejected == 1, f'{"applied" if accepted else "ignored"}: {bad!r}'
-        reason = rig.node._mapper.last_reason
+        reason = rig.node.loop.mapper.last_reason
         assert reason.split(':')[0] in ('name', 'effort', 'data'), reason
     if bad.kind.startswith('stamp'):
         assert late + future == 1, (delta, bad)
@@ -989,7 +989,7 @@ def test_fuzz_bridge_figures(topic, rig_name, request):
     TALLY.inputs(f'bridge {topic}', tried)
     assert tried >= FUZZ_EXAMPLES, f'only {tried} bad commands on {topic}'
     assert unsafe == 0
-    m = rig.node._mapper
+    m = rig.node.loop.mapper
     assert m.rejected_total >= sum(b.must_reject for b in FUZZ_RECORD[topic])
     TALLY.figure(f'3_bridge_{topic}', tried=tried, rejected=dict(m.rejected), accepted_and_clipped=m.accepted,
                  applied_efforts_checked=checked)

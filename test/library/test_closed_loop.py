@@ -13,35 +13,11 @@ import pytest
 from robot_control.gains import ServoGains, design, pd_steady_state_error
 from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, spring_force
 from robot_control.models import make_model
+from loop_helpers import critically_damped, integrate, joint_space_loop, rk4_step
 
 W_N = 6.0
 PD = ServoGains.uniform(2, W_N ** 2, 2 * W_N)
 DT = 1e-3
-
-
-def rk4_step(rhs, t, y, dt):
-    """One classical Runge-Kutta step of y' = rhs(t, y)."""
-    k1 = rhs(t, y)
-    k2 = rhs(t + dt / 2, y + dt / 2 * k1)
-    k3 = rhs(t + dt / 2, y + dt / 2 * k2)
-    k4 = rhs(t + dt, y + dt * k3)
-    return y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-
-
-def integrate(rhs, y0, t_end, dt=DT):
-    """Times (k,) and states (k, len(y0)) of y' = rhs(t, y) on a fixed grid from t = 0."""
-    steps = int(round(t_end / dt))
-    ts, ys = np.arange(steps + 1) * dt, np.empty((steps + 1, len(y0)))
-    ys[0] = y0
-    for i in range(steps):
-        ys[i + 1] = rk4_step(rhs, ts[i], ys[i], dt)
-    return ts, ys
-
-
-def critically_damped(e0, ed0, w_n, t):
-    """e(t) = (e0 + (ed0 + w_n e0) t) exp(-w_n t), t (k,) -> (k, len(e0))."""
-    t = np.asarray(t)[:, None]
-    return (e0 + (ed0 + w_n * e0) * t) * np.exp(-w_n * t)
 
 
 def quintic(q0, q1, T, t):
@@ -55,17 +31,6 @@ def quintic(q0, q1, T, t):
 def sinusoid(center, amp, w, t):
     """center + amp sin(w t) and its two derivatives."""
     return (center + amp * np.sin(w * t), amp * w * np.cos(w * t), -amp * w * w * np.sin(w * t))
-
-
-def joint_space_loop(model, reference, gains):
-    """y = [q, qd]; qdd = FD(q, qd, computed_torque(...)) with the reference (q_d, qd_d, qdd_d)(t)."""
-    n = model.n
-
-    def rhs(t, y):
-        q, qd = y[:n], y[n:]
-        tau = computed_torque(model, q, qd, *reference(t), gains)
-        return np.concatenate([qd, model.forward_dynamics(q, qd, tau)])
-    return rhs
 
 
 REFERENCES = {
@@ -212,3 +177,26 @@ def test_hybrid_force_and_motion_subspaces_do_not_interfere(name):
     assert np.max(np.abs(x_d - q_a)[:, ~axes]) < 1e-6
     e_f = critically_damped(np.array([5.0]), np.array([0.0]), math.sqrt(G_N), ts)[:, 0]
     assert np.max(np.abs((10.0 - f_a) - e_f)) < 1e-6
+
+
+def _pid_loop(reference, gains):
+    """y = [q, qd, int E] of a unit mass under the PID servo v = qdd_d + Kv Ed + Kp E + Ki int E."""
+    def rhs(t, y):
+        q_d, qd_d, qdd_d = reference(t)
+        E, Ed = q_d - y[0], qd_d - y[1]
+        return np.array([y[1], qdd_d + gains.kv[0] * Ed + gains.kp[0] * E + gains.ki[0] * y[2], E])
+    return rhs
+
+
+@pytest.mark.parametrize('zeta, overshoot', [(1.0, 0.249), (1.5, 0.173), (2.0, 0.136)])
+def test_pid_set_point_step_overshoots_through_the_integral_zero_and_a_smooth_reference_does_not(zeta, overshoot):
+    """The designed PID (real poles at -w_n twice and -w_n) has the zero -ki/kp = -w_n / (1 + 2 zeta)
+    from the set point: a step of q_d from rest overshoots (about 25 % at zeta = 1) although no pole
+    is complex. The demo's quintic moves (robot_control.trajectory) follow without overshoot."""
+    g = design(zeta, 12.0, integral=True).gains(1)
+    assert -g.ki[0] / g.kp[0] == pytest.approx(-W_N / (1 + 2 * zeta))
+    _, step = integrate(_pid_loop(lambda t: (1.0, 0.0, 0.0), g), [0.0, 0.0, 0.0], 3.0, dt=1e-4)
+    assert step[:, 0].max() - 1.0 == pytest.approx(overshoot, abs=0.002)
+    _, smooth = integrate(_pid_loop(lambda t: tuple(np.atleast_1d(a)[0] for a in quintic(0.0, 1.0, 1.0, t)), g),
+                          [0.0, 0.0, 0.0], 3.0, dt=1e-4)
+    assert smooth[:, 0].max() - 1.0 < 1e-9 and smooth[-1, 0] == pytest.approx(1.0, abs=1e-9)

@@ -86,3 +86,29 @@ def test_unknown_model_and_parameter_are_named():
         make_model('scara')
     with pytest.raises(ValueError, match='bad parameters'):
         make_model('single_link', mass=1.0)
+
+
+@pytest.mark.parametrize('name', sorted(CLOSED_FORM))
+def test_public_methods_check_their_arguments_naming_them(name):
+    """polar.g of a length-3 q, polar.M([0.3]): an ArgumentError naming q, never a silently ignored
+    entry or an IndexError; the same for qd, qdd and tau."""
+    model = make_model(name)
+    n, good = model.n, np.full(model.n, 0.3)
+    for call, arg in [(lambda v: model.M(v), 'q'), (lambda v: model.g(v), 'q'), (lambda v: model.C_qd(good, v), 'qd'),
+                      (lambda v: model.inverse_dynamics(good, good, v), 'qdd'),
+                      (lambda v: model.forward_dynamics(good, good, v), 'tau'), (lambda v: model.fk(v), 'q'),
+                      (lambda v: model.J(v), 'q'), (lambda v: model.Jdot_qd(good, v), 'qd')]:
+        for bad in (np.zeros(n + 1), np.zeros(max(n - 1, 0)), [np.nan] * n, 'fast'):
+            with pytest.raises(ValueError, match=f'^{arg}:') as info:
+                call(bad)
+            assert info.value.name == arg
+
+
+def test_inverse_and_forward_dynamics_are_composed_from_the_terms():
+    """inverse_dynamics = M qdd + C qd + g and forward_dynamics its inverse, for every closed form."""
+    for name in sorted(CLOSED_FORM):
+        model = make_model(name)
+        q, qd, qdd = RNG.uniform(0.2, 1.2, (3, model.n))
+        tau = model.inverse_dynamics(q, qd, qdd)
+        np.testing.assert_allclose(tau, model.M(q) @ qdd + model.C_qd(q, qd) + model.g(q), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(model.forward_dynamics(q, qd, tau), qdd, rtol=1e-12, atol=1e-12)

@@ -61,6 +61,11 @@ def entry_points(prefix):
     return dict(parser['console_scripts'])
 
 
+def text(path):
+    with open(path, encoding='utf-8') as f:
+        return f.read()
+
+
 def names(pattern):
     return sorted(os.path.basename(p) for p in glob.glob(pattern))
 
@@ -93,9 +98,7 @@ def test_nodes_are_installed_where_ros2_run_looks(installed):
 def test_package_is_registered_in_the_ament_index(installed):
     prefix, _ = installed
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PKG).is_file()
-    with open(prefix / 'share' / PKG / 'package.xml', encoding='utf-8') as got, \
-            open(os.path.join(ROOT, 'package.xml'), encoding='utf-8') as want:
-        assert got.read() == want.read()
+    assert text(prefix / 'share' / PKG / 'package.xml') == text(os.path.join(ROOT, 'package.xml'))
 
 
 def test_config_and_urdf_files_are_installed(installed):
@@ -117,6 +120,16 @@ def run_installed(prefix, code, cwd):
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     return site, proc.stdout
+
+
+def test_launch_file_is_installed_where_ros2_launch_looks(installed):
+    """`ros2 launch robot_control scenario.launch.py` finds share/robot_control/launch/*.launch.py."""
+    prefix, _ = installed
+    sources = names(os.path.join(ROOT, 'launch', '*.launch.py'))
+    assert 'scenario.launch.py' in sources
+    assert names(str(prefix / 'share' / PKG / 'launch' / '*.launch.py')) == sources
+    assert text(prefix / 'share' / PKG / 'launch' / 'scenario.launch.py') == \
+        text(os.path.join(ROOT, 'launch', 'scenario.launch.py'))
 
 
 def test_installed_package_resolves_its_own_urdfs(installed, tmp_path):
@@ -145,8 +158,41 @@ def test_every_config_yaml_is_installed(tmp_path):
     ignore = shutil.ignore_patterns('.*', '__pycache__', *ARTIFACTS, 'out', '*.egg-info', 'test')
     shutil.copytree(ROOT, src, ignore=ignore)
     os.makedirs(src / 'config', exist_ok=True)
-    (src / 'config' / 'zz_probe.yaml').write_text('controller:\n  ros__parameters:\n    rate: 1000.0\n')
+    (src / 'config' / 'zz_probe.yaml').write_text('/**/controller:\n  ros__parameters:\n    rate: 1000.0\n')
     prefix = colcon_build(tmp_path / 'src', tmp_path)
     installed_yaml = names(str(prefix / 'share' / PKG / 'config' / '*.yaml'))
     assert installed_yaml == names(str(src / 'config' / '*.yaml'))
     assert 'zz_probe.yaml' in installed_yaml
+
+
+#: rosdep key of each third-party module the package imports (ROS packages: their own name)
+ROSDEP_KEYS = {'numpy': 'python3-numpy', 'pinocchio': 'pinocchio', 'pybullet': 'python3-pybullet-pip',
+               'pybullet_data': 'python3-pybullet-pip', 'matplotlib': 'python3-matplotlib', 'yaml': 'python3-yaml',
+               'rosbags': 'python3-rosbags-pip', 'modern_robotics': 'python3-modern-robotics-pip'}
+
+
+def imported_modules():
+    """Top-level modules imported anywhere in the package's code (tests excluded), but its own and the stdlib's."""
+    import ast
+    found = set()
+    for path in glob.glob(os.path.join(ROOT, 'robot_control', '**', '*.py'), recursive=True) + \
+            glob.glob(os.path.join(ROOT, 'sim_bridge', '**', '*.py'), recursive=True):
+        with open(path, encoding='utf-8') as f:
+            tree = ast.parse(f.read())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                found.update(a.name.split('.')[0] for a in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                found.add(node.module.split('.')[0])
+    return found - set(sys.stdlib_module_names) - {PKG, 'sim_bridge'}
+
+
+def test_package_xml_declares_every_module_the_package_imports():
+    """After a colcon build on a ROS install, `rosdep install` must bring what the nodes and tools import."""
+    import xml.etree.ElementTree as ET
+    root = ET.parse(os.path.join(ROOT, 'package.xml')).getroot()
+    declared = {e.text.strip() for tag in ('exec_depend', 'depend') for e in root.iter(tag)}
+    modules = imported_modules()
+    assert {'matplotlib', 'rosbags', 'rclpy', 'sensor_msgs'} <= modules     # the scan sees the tools and nodes
+    missing = {m: ROSDEP_KEYS.get(m, m) for m in modules if ROSDEP_KEYS.get(m, m) not in declared}
+    assert not missing, f'package.xml lacks <exec_depend> for {missing}'

@@ -1,4 +1,8 @@
-"""config/*.yaml: one per scenario, each loads into the controller node and validates (issue 4, test 3)."""
+"""config/*.yaml: one per scenario, each loads into the controller node and validates.
+
+A file's sections are keyed `/**/<node name>` (rcl's wildcard: the node of that name in any
+namespace), so the same file configures a robot at the root and one under `/arm`.
+"""
 import glob
 import os
 
@@ -14,7 +18,8 @@ from robot_control.ros.params import ParameterError
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 CONFIG = os.path.join(ROOT, 'config')
 FILES = sorted(glob.glob(os.path.join(CONFIG, '*.yaml')))
-NODE_SECTIONS = {'controller', 'sim_bridge'}    # one file configures both nodes of a scenario
+NODE_SECTIONS = {'/**/controller', '/**/sim_bridge'}    # one file configures both nodes of a scenario
+CONTROLLER = '/**/controller'
 
 
 def _flatten(d, prefix=''):
@@ -30,7 +35,7 @@ def _flatten(d, prefix=''):
 def _controller_params(path):
     with open(path) as f:
         doc = yaml.safe_load(f)
-    return _flatten(doc['controller']['ros__parameters'])
+    return _flatten(doc[CONTROLLER]['ros__parameters'])
 
 
 def _node_from_file(context, path):
@@ -46,7 +51,7 @@ def test_every_scenario_has_a_config_file():
 def test_file_layout_is_ros_parameters_per_node(path):
     with open(path) as f:
         doc = yaml.safe_load(f)
-    assert set(doc) <= NODE_SECTIONS and 'controller' in doc
+    assert set(doc) <= NODE_SECTIONS and CONTROLLER in doc
     for section in doc.values():
         assert set(section) == {'ros__parameters'}
     params = _controller_params(path)
@@ -100,8 +105,66 @@ def test_polar_file_is_the_lecture_example(ros_context):
 def test_an_invalid_file_fails_naming_the_parameter(ros_context, tmp_path, key, value, match):
     with open(os.path.join(CONFIG, 'polar_two_link.yaml')) as f:
         doc = yaml.safe_load(f)
-    doc['controller']['ros__parameters'][key] = value
+    doc[CONTROLLER]['ros__parameters'][key] = value
     path = tmp_path / 'bad.yaml'
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(ParameterError, match=match):
         _node_from_file(ros_context, str(path))
+
+
+def test_empty_lists_in_a_file_are_empty(ros_context, tmp_path):
+    """`force_axes: []` turns off iiwa's force axis (with its k_e, x_e); `kp: []` keeps the designed gains,
+    as a `ros2 param dump` of the running node writes them."""
+    with open(os.path.join(CONFIG, 'iiwa.yaml')) as f:
+        doc = yaml.safe_load(f)
+    doc[CONTROLLER]['ros__parameters'].update(force_axes=[], k_e=[], x_e=[], f_d=[], kp=[])
+    path = tmp_path / 'no_force.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    node = _node_from_file(ros_context, str(path))
+    try:
+        cfg = node.core.config
+        assert cfg.force_axes == () and cfg.k_e.shape == (0,)
+        assert node.get_parameter('kp').type_ == Parameter.Type.DOUBLE_ARRAY
+        np.testing.assert_array_equal(cfg.gains.kp, [36.0] * 7)
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.parametrize('namespace', ['/', '/arm', '/robots/left'])
+def test_file_applies_to_the_controller_in_any_namespace(ros_context, namespace):
+    """`/**/controller` matches the node named controller whatever its namespace (as ros2 launch
+    starts it: `-r __ns:=<namespace> --params-file <file>`)."""
+    path = os.path.join(CONFIG, 'iiwa.yaml')
+    node = ControllerNode(context=ros_context,
+                          cli_args=['--ros-args', '-r', f'__ns:={namespace}', '--params-file', path])
+    try:
+        assert node.get_namespace() == namespace
+        assert node.get_parameter('scenario').value == 'iiwa'     # the node's default is ''
+        assert list(node.get_parameter('joints').value) == _controller_params(path)['joints']
+    finally:
+        node.destroy_node()
+
+
+def test_a_key_the_controller_does_not_have_is_refused(ros_context, tmp_path):
+    with open(os.path.join(CONFIG, 'polar_two_link.yaml')) as f:
+        doc = yaml.safe_load(f)
+    doc[CONTROLLER]['ros__parameters']['model_params']['mass'] = 2.0
+    path = tmp_path / 'typo.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.raises(ParameterError, match=r'^model_params.mass: unknown parameter of controller; did you mean '
+                                             r'model_params.m\?'):
+        _node_from_file(ros_context, str(path))
+
+
+def test_file_applies_to_the_bridge_in_a_namespace(ros_context):
+    from sim_bridge.bridge_node import SimBridge
+    path = os.path.join(CONFIG, 'iiwa.yaml')
+    with open(path) as f:
+        want = yaml.safe_load(f)['/**/sim_bridge']['ros__parameters']
+    node = SimBridge(context=ros_context, cli_args=['--ros-args', '-r', '__ns:=/arm', '--params-file', path])
+    try:
+        assert node.get_namespace() == '/arm'
+        assert node.get_parameter('scenario').value == 'iiwa'     # the node's default is polar_two_link
+        assert list(node.get_parameter('initial_positions').value) == want['initial_positions']
+    finally:
+        node.destroy_node()

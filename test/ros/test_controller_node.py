@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -26,6 +26,7 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
 from cdr_helpers import big_endian
+from robot_control import units
 from robot_control.ros import conversions as cv
 from robot_control.ros.controller_node import ControllerNode
 from robot_control.gains import ServoGains, design
@@ -253,7 +254,7 @@ def test_a_big_endian_state_is_answered_like_a_little_endian_one(ros_context):
         big = T0_NS + DT_NS
         raw = big_endian({'names': list(POLAR_JOINTS), 'stamp_ns': big, 'frame_id': '', 'position': [0.1, 0.5],
                           'velocity': [0.2, -0.1], 'effort': []})
-        assert ctrl._state_decoder.decode(raw) is None
+        assert ctrl.session._state_decoder.decode(raw) is None
         robot.send_until(ex, robot.state_pub, raw, lambda: big in robot.commands)
         assert robot.commands[big][0] == POLAR_JOINTS
         np.testing.assert_array_equal(robot.commands[big][3], robot.commands[little][3])
@@ -274,7 +275,7 @@ def test_trajectory_is_accepted_and_followed_by_the_reference(ros_context):
         expected = from_points(0.0, (q, None, None), [0.01, 0.02], [[0.3, 0.6], [0.4, 0.55]])
         for k in range(1, 30):
             _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
-            for got, want in zip(_ref_of(ref), expected.sample(k * DT_NS * 1e-9)):
+            for got, want in zip(_ref_of(ref), expected.sample(units.seconds(k * DT_NS))):
                 np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
         np.testing.assert_allclose(ref[1], [0.4, 0.55], rtol=0, atol=1e-12)   # last point held
 
@@ -315,13 +316,13 @@ def test_new_trajectory_replaces_the_active_one_without_a_reference_jump(ros_con
         assert np.all(np.abs(before[1]) > 1.0)          # mid-move
         robot.send_until(ex, robot.traj_pub, cv.joint_trajectory(POLAR_JOINTS, [0.03], [[0.0, 0.4]]),
                          lambda: ctrl.trajectories_accepted == 2)
-        t_r = 15 * DT_NS * 1e-9
+        t_r = units.seconds(15 * DT_NS)
         expected = from_points(t_r, before, [0.03], [[0.0, 0.4]])
         prev = before
         for k in range(16, 50):
             _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
             now = _ref_of(ref)
-            for got, want in zip(now, expected.sample(k * DT_NS * 1e-9)):
+            for got, want in zip(now, expected.sample(units.seconds(k * DT_NS))):
                 np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
             dt = DT_NS * 1e-9
             assert np.all(np.abs(now[0] - prev[0]) <= np.abs(prev[1]) * dt + 0.5 * np.abs(prev[2]) * dt ** 2 + 1e-4)
@@ -345,7 +346,7 @@ def test_a_wrench_reference_stamped_ahead_applies_from_the_first_state_at_its_st
         robot.step(ex, ['x'], [0.1], [0.0], T0_NS)
         at = T0_NS + 3 * DT_NS + 1                                   # between two states: the next one applies it
         robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [7.5], stamp_ns=at),
-                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl._pending_force is not None)
+                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl.core.force_pending is not None)
         targets = []
         for k in range(1, 7):
             _, ref, _ = robot.step(ex, ['x'], [0.1], [0.0], T0_NS + k * DT_NS)
@@ -362,7 +363,7 @@ def test_a_wrench_reference_stamped_ahead_is_dropped_when_time_goes_back(ros_con
         robot.step(ex, ['x'], [0.1], [0.0], T0_NS + 10 * DT_NS)
         at = T0_NS + 13 * DT_NS
         robot.send_until(ex, robot.wref_pub, cv.wrench_along(('x',), [7.5], stamp_ns=at),
-                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl._pending_force is not None)
+                         lambda: ctrl.rejected['wrench_reference'] > 0 or ctrl.core.force_pending is not None)
         restarts = ctrl.core.restarts
         targets = [robot.step(ex, ['x'], [0.1], [0.0], T0_NS + k * DT_NS)[1][1][0] for k in range(0, 20)]
         assert ctrl.core.restarts == restarts + 1 and ctrl.rejected['wrench_reference'] == 0
@@ -396,7 +397,7 @@ def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_ne
     """Once wrenches carry the stamps of the states (a tick answered with its own wrench), a state whose
     wrench is still on its way waits for it (at most WRENCH_WAIT); a stream without those stamps does not."""
     import threading
-    from robot_control.ros.controller_node import WRENCH_WAIT
+    from robot_control.ros.controller_session import WRENCH_WAIT
     params, joints, q0, make_expected, _ = LAW_CASES['hybrid_sensor']
     expected_law = make_expected(False)
     with rig(ros_context, **params) as (ex, ctrl, robot):
@@ -460,10 +461,10 @@ def test_valid_parameter_change_takes_effect_on_the_next_tick(ros_context):
     ('zeta', 0.5, 'zeta: 0.5 breaks the rule zeta >= 1'),
     ('omega_n', 7.0, 'omega_n: 7 rad/s > 0.5 * 12 rad/s'),
     ('kp', [36.0, 36.0, 36.0], 'kp: expected 2 values'),
-    ('kp', [-1.0, 36.0], 'kp: expected non-negative gains'),
+    ('kp', [-1.0, 36.0], 'kp: expected non-negative values'),
     ('law', 'pid', "law: unknown 'pid'"),
     ('effort_limits', [10.0], 'effort_limits: expected a scalar or length 2'),
-    ('effort_limits', [10.0, 0.0], 'effort_limits: expected positive bounds'),
+    ('effort_limits', [10.0, 0.0], 'effort_limits: expected positive values'),
     ('omega_res', -1.0, 'omega_res: expected a positive number'),
     ('state_timeout', 0.0, 'state_timeout: expected a positive number'),
     ('q_d', [0.1], 'q_d: expected empty or 2 values'),
@@ -517,6 +518,9 @@ def test_invalid_start_up_parameter_raises_naming_it(ros_context):
         ControllerNode(context=ros_context, parameter_overrides=[Parameter('scenario', value='moon_rover')])
     with pytest.raises(ParameterError, match='^zeta: expected type DOUBLE'):
         ControllerNode(context=ros_context, parameter_overrides=[Parameter('zeta', value=1)])
+    with pytest.raises(ParameterError, match='^zetta: unknown parameter of controller; did you mean zeta') as err:
+        ControllerNode(context=ros_context, parameter_overrides=[Parameter('zetta', value=1.0)])
+    assert err.value.name == 'zetta'
 
 
 def test_switching_law_and_gains_at_run_time_is_bumpless(ros_context):
@@ -549,7 +553,7 @@ def test_q_d_parameter_moves_the_reference_from_the_current_one(ros_context):
         expected = from_points(0.0, (q, None, None), [0.02], [[0.2, 0.6]])
         for k in range(1, 25):
             _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
-            for got, want in zip(_ref_of(ref), expected.sample(k * DT_NS * 1e-9)):
+            for got, want in zip(_ref_of(ref), expected.sample(units.seconds(k * DT_NS))):
                 np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
 
 
@@ -644,9 +648,9 @@ def test_a_run_of_rejections_calls_the_logger_once_per_throttle_period(ros_conte
         class Logger:
             def warning(self, text, **kwargs):
                 warnings.append(text)
-        ctrl.get_logger = Logger                                   # this instance only
+        ctrl.session.log = Logger()                                # this controller only
         for k in range(100):
-            ctrl._reject('joint_states', f'bad {k}')
+            ctrl.session.reject('joint_states', f'bad {k}')
         assert ctrl.rejected['joint_states'] == 100 and ctrl.last_rejection == 'joint_states: bad 99'
         assert warnings == ['rejected joint_states: bad 0']
 
@@ -702,3 +706,61 @@ def test_main_exits_non_zero_naming_an_invalid_parameter():
             proc.wait()
     assert proc.returncode == 1
     assert 'invalid parameter zeta: 0.5 breaks the rule zeta >= 1' in out
+
+
+# -- joint_trajectory_controller semantics through the node ------------------------------------------------
+def test_constraints_parameters_hold_the_position_on_a_path_violation_and_report_error(ros_context):
+    """constraints.<joint>.trajectory set at run time; the robot does not follow: the path tolerance
+    trips, the reference holds where the robot is and /diagnostics' trajectory status is ERROR."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        assert all(r.successful for r in ctrl.set_parameters([Parameter('constraints.theta1.trajectory', value=0.02),
+                                                              Parameter('constraints.r.trajectory', value=0.02)]))
+        assert ctrl.core.config.tolerances.trajectory.tolist() == [0.02, 0.02]
+        q = np.array([0.1, 0.5])
+        robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS)
+        robot.send_until(ex, robot.traj_pub, cv.joint_trajectory(POLAR_JOINTS, [0.0, 0.5], [q, [0.6, 0.5]]),
+                         lambda: ctrl.trajectories_accepted == 1)
+        k = 1
+        while ctrl.core.goal.active and k < 500:
+            robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)       # the robot stays put
+            k += 1
+        assert ctrl.core.goal.outcome == 'path' and 'theta1: |q_d - q| = 0.02' in ctrl.core.goal.reason
+        _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
+        np.testing.assert_array_equal(ref[1], q)                                    # holds where it is
+        status = {s.name.split(': ')[1]: s for s in ctrl.diagnostics()}['trajectory']
+        assert status.level == DiagnosticStatus.ERROR and 'path' in status.message
+
+
+def test_a_partial_goal_is_refused_unless_allowed_and_an_empty_one_cancels(ros_context):
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        q = np.array([0.1, 0.5])
+        robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS)
+        partial = cv.joint_trajectory(['r'], [0.5], [[0.7]])
+        robot.send_until(ex, robot.traj_pub, partial, lambda: ctrl.rejected['joint_trajectory'] == 1)
+        assert 'allow_partial_joints_goal is false' in ctrl.last_rejection
+        assert ctrl.set_parameters([Parameter('allow_partial_joints_goal', value=True)])[0].successful
+        robot.send_until(ex, robot.traj_pub, partial, lambda: ctrl.trajectories_accepted == 1)
+        for k in range(1, 300):
+            _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + k * DT_NS)
+        assert ref[1][0] == pytest.approx(0.1, abs=1e-12) and 0.5 < ref[1][1] < 0.7    # theta1 held, r moving
+        robot.send_until(ex, robot.traj_pub, cv.joint_trajectory(POLAR_JOINTS, [], np.zeros((0, 2))),
+                         lambda: ctrl.trajectories_accepted == 2)
+        _, ref, _ = robot.step(ex, POLAR_JOINTS, q, [0.0, 0.0], T0_NS + 300 * DT_NS)
+        np.testing.assert_array_equal(ref[1], q)                                    # cancelled: holds q
+        assert ctrl.core.goal.outcome == 'cancelled'
+
+
+def test_the_gains_in_force_are_read_only_parameters_that_follow_every_change(ros_context):
+    """Designed from zeta and omega: `ros2 param get /controller gains.kp` gives them (kp itself stays []),
+    they follow a change of zeta, a set from outside is refused, and /diagnostics lists them."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        assert list(ctrl.get_parameter('kp').value) == []
+        assert list(ctrl.get_parameter('gains.kp').value) == [36.0, 36.0]
+        assert list(ctrl.get_parameter('gains.kv').value) == [12.0, 12.0]
+        assert ctrl.set_parameters([Parameter('zeta', value=2.0)])[0].successful
+        assert list(ctrl.get_parameter('gains.kv').value) == [24.0, 24.0]       # 2 zeta w_n, w_n = 6
+        refused = ctrl.set_parameters([Parameter('gains.kp', value=[1.0, 1.0])])[0]
+        assert not refused.successful and refused.reason.startswith('gains.kp: read-only: in force')
+        assert list(ctrl.get_parameter('gains.kp').value) == [36.0, 36.0]
+        law = {s.name.split(': ')[1]: s for s in ctrl.diagnostics()}['control law']
+        assert {v.key: v.value for v in law.values}['gains.kv'] == '[24.0, 24.0]'

@@ -180,14 +180,27 @@ def _traj(names=JOINTS, times=(1.0, 2.0), positions=((0.0, 0.5), (0.1, 0.6))):
     (_traj(names=('theta1', 'r', 'r'), positions=((0, 0, 0), (0, 0, 0))), '^joint_names: duplicate'),
     (_traj(times=(2.0, 1.0)), r'^points\[1\].time_from_start: not after points\[0\]'),
     (_traj(times=(1.0, 1.0)), r'^points\[1\].time_from_start: not after'),
-    (_traj(times=(0.0, 1.0)), r'^points\[0\].time_from_start: expected > 0'),
+    (_traj(times=(-1.0, 1.0)), r'^points\[0\].time_from_start: expected >= 0'),
     (_traj(positions=((0.0, math.nan), (0.1, 0.6))), r'^points\[0\].positions: not finite'),
     (_traj(positions=((0.0, 0.5), (0.1,))), r'^points\[1\].positions: expected one entry per joint'),
-    (cv.joint_trajectory(JOINTS, [], np.zeros((0, 2))), '^points: empty'),
 ])
 def test_bad_trajectories_are_rejected_naming_the_field(msg, match):
     with pytest.raises(ValueError, match=match):
         cv.trajectory_goal(msg, JOINTS)
+
+
+def test_joint_trajectory_controller_semantics_first_point_at_zero_empty_and_partial_goals():
+    """The first point may be at 0 s (a planner's current state); no points is an empty trajectory
+    (cancel); a joint left out is refused unless allow_partial_joints_goal (then its column is NaN)."""
+    goal = cv.trajectory_goal(_traj(times=(0.0, 1.0)), JOINTS)
+    np.testing.assert_array_equal(goal.times, [0.0, 1.0])
+    assert cv.trajectory_goal(cv.joint_trajectory(JOINTS, [], np.zeros((0, 2))), JOINTS).empty
+    partial = _traj(names=('r',), positions=((0.5,), (0.6,)))
+    with pytest.raises(ValueError, match=r"^joint_names: unknown \[\], missing \['theta1'\].*allow_partial_joints_goal"):
+        cv.trajectory_goal(partial, JOINTS)
+    goal = cv.trajectory_goal(partial, JOINTS, allow_partial=True)
+    assert goal.given.tolist() == [False, True]
+    assert np.isnan(goal.positions[:, 0]).all() and goal.positions[:, 1].tolist() == [0.5, 0.6]
 
 
 def test_velocities_in_some_points_only_are_rejected():

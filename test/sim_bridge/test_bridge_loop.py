@@ -1,14 +1,19 @@
-"""Bridge pacing, command checks and parameter validation without ROS (sim_bridge.loop, bridge_params)."""
+"""The bridge without ROS: pacing pieces and command checks (sim_bridge.loop), the loop's decisions over a
+real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.parameters)."""
 import array
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
+from robot_control.models import make_model
+from robot_control.core.throttle import Throttle
 from sim_bridge import parameters as bridge_params
-from robot_control.ros.throttle import Throttle
-from sim_bridge.loop import (CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
-                               SourceGuard, stamp_ns)
+from sim_bridge.bridge_loop import LockstepLoop, RealtimeLoop, make_loop
+from sim_bridge.loop import (REJECT_REASONS, CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
+                             SourceGuard, stamp_ns)
+from sim_bridge.world import World
 
 MS = 1_000_000
 
@@ -186,10 +191,13 @@ def test_defaults_validate_for_every_scenario():
         assert set(cfg.sim_params) >= set(sc.params)
 
 
-def test_every_parameter_has_a_description():
-    for spec in bridge_params.robot_specs() + [bridge_params.joints_spec('iiwa')] + bridge_params.specs('iiwa', 7):
-        assert spec.description and spec.kind in ('bool', 'double', 'string', 'double_array', 'string_array')
-        assert spec.read_only == (spec.name not in bridge_params.DYNAMIC)
+def test_every_parameter_has_a_description_and_only_the_pacing_and_disturbances_change_at_run_time():
+    rows, _ = bridge_params.TABLE.resolve(lambda row: 'iiwa' if row.name == 'scenario' else row.default)
+    for row in rows:
+        assert row.description and row.type in ('bool', 'double', 'string', 'double_array', 'string_array')
+    assert {row.name for row in rows if not row.read_only} == {
+        'real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
+        'disturbance.cartesian_force', 'diagnostics_period'}
 
 
 def test_control_period_multiple_of_physics_step():
@@ -250,3 +258,312 @@ def test_deadline_meter_counts_answers_before_the_next_step():
     meter.command(1_000_000, 3_200_000)  # answers an old state: ignored
     assert (meter.hits, meter.misses) == (1, 1)
     assert meter.latency_ms(50) == pytest.approx((0.4 + 1.1) / 2)
+
+
+# -- BridgeLoop: the node's decisions over a real World, a fake node and a fake wall clock -------------
+POLAR = make_model('polar_two_link', m=2.0, gravity=9.8)
+JOINTS = ['theta1', 'r']
+Q0 = np.array([0.0, 0.5])
+HOLD = POLAR.g(Q0).tolist()                           # exactly g(q0): the robot stays where it is
+
+
+class FakeNode:
+    """What the node gives the loop: a wall clock the test sets (`now`, ns), publisher counts, and a
+    record of the states, diagnostics and log lines it is asked for."""
+
+    def __init__(self, world):
+        self.world = world
+        self.now = 1_000 * MS
+        self.counts = [1, 0]
+        self.counted = 0
+        self.states = []                  # (t_ns, in_loop, with_clock, effort applied)
+        self.diagnostics = 0
+        self.logs = []                    # (level, text)
+
+    def clock(self):
+        return self.now
+
+    def publish_state(self, in_loop, with_clock):
+        self.states.append((self.world.t_ns, in_loop, with_clock, list(self.world.state_values()[2])))
+        return self.now
+
+    def count_publishers(self):
+        self.counted += 1
+        return list(self.counts)
+
+    def publish_diagnostics(self):
+        self.diagnostics += 1
+
+    def log(self, level, text):
+        self.logs.append((level, text))
+
+
+@pytest.fixture
+def bridge():
+    """bridge(**parameters) -> (loop, fake node): a started loop over a polar_two_link World."""
+    worlds = []
+
+    def make(**params):
+        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', **params))
+        worlds.append(World('polar_two_link', dt=cfg.physics_step))
+        node = FakeNode(worlds[-1])
+        loop = make_loop(worlds[-1], cfg, publish_state=node.publish_state, count_publishers=node.count_publishers,
+                         publish_diagnostics=node.publish_diagnostics, log=node.log, clock=node.clock)
+        loop.start()
+        return loop, node
+    yield make
+    for w in worlds:
+        w.close()
+
+
+def statuses(loop):
+    return {s.name: s for s in loop.diagnostics()}
+
+
+def test_lockstep_answer_steps_once_and_publishes_the_next_state(bridge):
+    loop, node = bridge(mode='lockstep')
+    assert isinstance(loop, LockstepLoop)
+    assert node.states == [(0, False, True, [0.0, 0.0])] and node.counted == 1     # first state, /clock
+    push = (POLAR.g(Q0) + [0.0, 2.0]).tolist()
+    loop.on_joint_command(0, ['r', 'theta1'], push[::-1])                          # by name, any order
+    assert loop.world.t_ns == MS and loop.ticks == 1 and loop.mapper.accepted == 1
+    assert node.states[-1] == (MS, True, False, push)                              # effort = torque applied
+    for k in range(1, 12):
+        loop.on_array_command(push)                                                # an array answers the latest
+    assert [s[0] for s in node.states] == [k * MS for k in range(13)]
+    assert [s[2] for s in node.states] == [k % 10 == 0 for k in range(13)]         # /clock every 10 ms
+
+
+def test_lockstep_late_and_future_stamps_do_not_step(bridge):
+    loop, node = bridge(mode='lockstep')
+    loop.on_joint_command(0, JOINTS, HOLD)
+    counted, published = node.counted, len(node.states)
+    loop.on_joint_command(0, JOINTS, HOLD)                   # the state at 0 answered twice: late
+    assert node.counted == counted + 1                       # the publishers are counted at once
+    loop.on_joint_command(5 * MS, JOINTS, HOLD)              # answers nothing published yet
+    assert (loop.gate.late, loop.gate.future) == (1, 1)
+    assert loop.world.t_ns == MS and len(node.states) == published and loop.mapper.accepted == 1
+    loop.on_joint_command(MS, JOINTS, HOLD)
+    assert loop.world.t_ns == 2 * MS
+
+
+def test_lockstep_bad_answer_still_steps_on_the_brakes_or_the_last_valid_command(bridge):
+    loop, node = bridge(mode='lockstep')
+    loop.on_joint_command(0, JOINTS, [math.nan, 0.0])
+    assert loop.world.t_ns == MS and loop.world.braked and loop.brake_reason == 'no valid command yet'
+    assert loop.mapper.rejected['non_finite'] == 1 and node.diagnostics == 1
+    assert [lvl for lvl, text in node.logs if 'rejected command' in text] == ['warning']
+    assert ('warning', 'brakes engaged at t = 0.000 s: no valid command yet') in node.logs
+    loop.on_joint_command(MS, JOINTS, HOLD)
+    assert not loop.brakes_engaged and not loop.world.braked and loop.brake_events == 2
+    loop.on_joint_command(2 * MS, JOINTS, [0.0])                  # wrong length: HOLD stays in force
+    assert loop.world.t_ns == 3 * MS and node.states[-1][3] == HOLD and loop.mapper.rejected['length'] == 1
+
+
+def test_lockstep_republishes_when_no_answer_comes(bridge):
+    loop, node = bridge(mode='lockstep', lockstep_timeout=0.02)
+    node.now += 19 * MS
+    loop.on_timer()
+    assert len(node.states) == 1
+    node.now += MS
+    loop.on_timer()
+    assert node.states[1][:2] == (0, False) and loop.republished == 1 and loop.world.t_ns == 0
+
+
+def test_lockstep_pause_keeps_the_latest_answer_for_the_resume(bridge):
+    loop, node = bridge(mode='lockstep')
+    assert loop.pause(True) == 'paused at t = 0.000 s' and loop.paused
+    push = (POLAR.g(Q0) + [0.0, 2.0]).tolist()
+    loop.on_joint_command(0, JOINTS, HOLD)
+    loop.on_joint_command(0, JOINTS, push)
+    assert loop.world.t_ns == 0 and loop.mapper.accepted == 0
+    node.now += 100 * MS                                     # a live robot standing still:
+    loop.on_timer()                                          # the state every 0.1 s of wall time
+    node.now += 50 * MS
+    loop.on_timer()
+    assert [s[:2] for s in node.states] == [(0, False), (0, False)]
+    assert loop.pause(True) == 'already paused at t = 0.000 s'
+    assert loop.pause(False) == 'resumed at t = 0.000 s'
+    assert loop.world.t_ns == MS and node.states[-1] == (MS, True, False, push) and loop.mapper.accepted == 1
+    loop.pause(True)
+    loop.pause(False)                                        # nothing answered: the state again
+    assert node.states[-1][:2] == (MS, False) and loop.world.t_ns == MS
+    assert [lvl for lvl, _ in node.logs] == ['info'] * 4 and node.diagnostics == 4
+
+
+def test_realtime_brakes_on_a_stale_command_and_releases_on_a_fresh_one(bridge):
+    loop, node = bridge(mode='realtime', command_timeout=0.05)
+    assert isinstance(loop, RealtimeLoop)
+    assert loop.brake_reason == 'no command yet' and loop.world.braked and node.logs == []   # quiet at start
+    loop.on_joint_command(0, JOINTS, HOLD)
+    assert not loop.world.braked and loop.brake_events == 2
+    node.now += 10 * MS
+    loop.on_timer()
+    assert loop.ticks == 10 and loop.world.t_ns == 10 * MS and not loop.brakes_engaged
+    node.now += 60 * MS                                      # silent for more than command_timeout
+    loop.on_timer()
+    assert loop.world.t_ns == 70 * MS and loop.world.braked
+    assert loop.brake_reason == 'stale command (none valid for more than command_timeout = 0.05 s)'
+    # the release at t = 0 was logged 70 ms of wall time ago: one line per second, the engagement is not
+    assert node.logs == [('info', 'brakes released at t = 0.000 s: fresh command')]
+    brakes = statuses(loop)['brakes']
+    assert (brakes.level, brakes.values) == ('WARN', {'engaged': True, 'reason': loop.brake_reason, 'events': 3})
+    assert statuses(loop)['commands'].values['command_age'] == pytest.approx(0.07)
+    node.now += 1_000 * MS
+    loop.on_joint_command(70 * MS, JOINTS, HOLD)
+    assert not loop.world.braked and node.logs[-1] == ('info', 'brakes released at t = 0.070 s: fresh command')
+    assert statuses(loop)['brakes'].level == 'OK' and node.diagnostics == 4
+
+
+def test_realtime_ignores_a_command_answering_a_state_older_than_command_timeout(bridge):
+    """A command held up on the way (a network link that failed and came back) is counted and logged, never
+    applied, and does not release the brakes; exactly command_timeout old is still in time."""
+    loop, node = bridge(mode='realtime', command_timeout=0.05)
+    for _ in range(20):
+        node.now += 10 * MS
+        loop.on_timer()
+    assert loop.world.t_ns == 200 * MS and loop.brake_reason == 'no command yet'
+    push = (POLAR.g(Q0) + [0.0, 50.0]).tolist()
+    loop.on_joint_command(150 * MS - 1, JOINTS, push)
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 0 and loop.world.braked
+    assert statuses(loop)['commands'].values['outdated_commands'] == 1
+    assert node.logs[-1] == ('warning', 'ignored a command answering the state of t = 0.150 s at t = 0.200 s '
+                                        '(older than command_timeout = 0.05 s); 1 so far')
+    loop.on_joint_command(150 * MS, JOINTS, HOLD)
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 1 and not loop.world.braked
+
+
+def test_realtime_runs_the_ticks_due_on_the_wall_clock(bridge):
+    loop, node = bridge(mode='realtime', real_time_factor=0.5)
+    loop.on_joint_command(0, JOINTS, HOLD)
+    loop.on_timer()
+    assert loop.ticks == 0                                   # never ahead of the wall clock
+    node.now += 10 * MS
+    loop.on_timer()
+    assert loop.ticks == 5 and all(s[1] for s in node.states[1:])
+    pacing = statuses(loop)['pacing']
+    assert pacing.level == 'OK' and pacing.values['achieved_real_time_factor'] == pytest.approx(0.5)
+    assert (pacing.values['deadline_hits'], pacing.values['deadline_misses']) == (1, 4)   # one answer, to t = 0
+    loop.configure(dataclasses.replace(loop.cfg, real_time_factor=2.0))                  # re-anchored now
+    node.now += 10 * MS
+    loop.on_timer()
+    assert loop.ticks == 25
+    node.now += 1_000 * MS                                   # a stall: one tick, no burst
+    loop.on_timer()
+    assert loop.ticks == 26
+    pacing = statuses(loop)['pacing']
+    assert pacing.level == 'WARN' and pacing.message == 'realtime x2.0: 1 overruns (stalls > 0.1 s)'
+
+
+def test_realtime_pause_stands_still_and_resumes_without_a_burst(bridge):
+    loop, node = bridge(mode='realtime')
+    loop.on_joint_command(0, JOINTS, HOLD)
+    loop.pause(True)
+    node.now += 500 * MS
+    loop.on_timer()
+    assert loop.ticks == 0 and node.states[-1][:2] == (0, False)       # re-published, not stepped
+    assert statuses(loop)['pacing'].message == 'realtime x1.0, paused'
+    loop.pause(False)
+    node.now += 3 * MS
+    loop.on_timer()
+    assert loop.ticks == 3 and statuses(loop)['pacing'].values['overruns'] == 0
+
+
+def test_two_publishers_on_a_command_topic_engage_the_brakes_until_the_evidence_is_old(bridge):
+    loop, node = bridge(mode='lockstep', command_timeout=0.02)
+    node.counts = [2, 0]
+    commands = statuses(loop)['commands']                    # counted for the diagnostics
+    assert commands.level == 'WARN' and commands.message == 'duplicate publishers: 2 publishers on robot_joint_commands'
+    loop.on_joint_command(0, JOINTS, HOLD)
+    assert loop.world.t_ns == MS and loop.brake_reason == 'publisher conflict: 2 publishers on robot_joint_commands'
+    commands = statuses(loop)['commands']
+    assert commands.level == 'ERROR' and commands.values['publisher_conflicts'] == 1
+    node.counts = [1, 0]                                     # the second one left
+    loop.refresh_publisher_counts()
+    released = None
+    for k in range(1, 40):
+        loop.on_joint_command(k * MS, JOINTS, HOLD)
+        if released is None and not loop.brakes_engaged:
+            released = k
+    assert released == 21                  # the first answer more than command_timeout after the evidence at 0
+    assert statuses(loop)['commands'].level == 'OK'
+
+
+def test_commands_on_both_topics_engage_the_brakes_in_realtime(bridge):
+    loop, node = bridge(mode='realtime')
+    loop.on_joint_command(0, JOINTS, HOLD)
+    assert not loop.brakes_engaged
+    loop.on_array_command(HOLD)
+    assert loop.world.braked
+    assert loop.brake_reason == 'publisher conflict: commands on both robot_joint_commands and effort_controller/commands'
+    assert statuses(loop)['commands'].level == 'ERROR'
+
+
+def test_reset_rebuilds_the_world_and_forgets_the_command(bridge):
+    loop, node = bridge(mode='lockstep')
+    push = (POLAR.g(Q0) + [0.0, 2.0]).tolist()
+    for k in range(20):
+        loop.on_joint_command(k * MS, JOINTS, push)
+    assert loop.world.state()[0][1] > 0.5 + 1e-5
+    assert loop.reset() == 'world rebuilt, t = 0.000 s'
+    assert loop.world.t_ns == 0 and loop.ticks == 0 and loop.mapper.values == [0.0, 0.0]
+    assert node.states[-1] == (0, False, True, [0.0, 0.0]) and loop.world.state()[0].tolist() == Q0.tolist()
+    loop.on_joint_command(0, JOINTS, HOLD)                   # the gate expects t = 0 again
+    assert loop.world.t_ns == MS and loop.mapper.accepted == 21
+    realtime, node = bridge(mode='realtime')
+    realtime.on_joint_command(0, JOINTS, HOLD)
+    node.now += 5 * MS
+    realtime.on_timer()
+    assert realtime.reset() and realtime.world.braked and realtime.brake_reason == 'no command yet'
+    node.now += 5 * MS
+    realtime.on_timer()
+    realtime.on_array_command(HOLD)                          # the command history restarted with the time
+    assert realtime.world.t_ns == 5 * MS and not realtime.brakes_engaged
+
+
+def test_diagnostics_keys_and_levels(bridge):
+    loop, node = bridge(mode='lockstep')
+    s = statuses(loop)
+    assert [(x.level, x.message) for x in s.values()] == [('OK', 'lockstep'), ('OK', '0 commands accepted'),
+                                                         ('OK', 'released')]
+    assert list(s['pacing'].values) == ['mode', 'sim_time', 'paused', 'control_ticks', 'physics_step',
+                                        'control_period', 'republished_states', 'late_commands', 'future_commands']
+    assert list(s['commands'].values) == (
+        ['accepted', 'rejected'] + [f'rejected_{r}' for r in REJECT_REASONS]
+        + ['last_reject_reason', 'command_age', 'command_timeout', 'outdated_commands', 'publishers robot_joint_commands',
+           'publishers effort_controller/commands', 'publisher_conflicts'])
+    assert s['commands'].values['command_age'] == 'n/a'
+    loop.on_joint_command(0, ['theta1', 'x'], HOLD)
+    commands = statuses(loop)['commands']
+    assert commands.level == 'WARN' and commands.message.startswith('1 commands rejected, last: name: unknown')
+    realtime, _ = bridge(mode='realtime')
+    s = statuses(realtime)
+    assert list(s['pacing'].values)[6:] == ['real_time_factor', 'achieved_real_time_factor', 'overruns',
+                                            'deadline_hits', 'deadline_misses', 'latency_p50_ms', 'latency_p99_ms']
+    assert s['brakes'].level == 'WARN' and s['brakes'].message == 'engaged: no command yet'
+
+
+def test_configure_applies_timeout_and_disturbance_and_refuses_fixed_fields(bridge):
+    loop, node = bridge(mode='realtime')
+    cfg = bridge_params.validate(bridge_params.defaults(
+        'polar_two_link', mode='realtime', command_timeout=0.2, **{'disturbance.joint_torque': [0.0, -1.5]}))
+    loop.configure(cfg)
+    assert loop.world.disturbance[0].tolist() == [0.0, -1.5]
+    loop.on_joint_command(0, JOINTS, HOLD)
+    for _ in range(2):
+        node.now += 90 * MS
+        loop.on_timer()
+    assert loop.ticks == 180 and not loop.brakes_engaged     # silent for 0.18 s: stale after 0.2 s only
+    with pytest.raises(ValueError, match='^mode: cannot change'):
+        loop.configure(dataclasses.replace(cfg, mode='lockstep'))
+
+
+def test_lockstep_loop_runs_are_bit_identical(bridge):
+    def run():
+        loop, node = bridge(mode='lockstep')
+        for k in range(200):
+            q, qd, _ = loop.world.state()
+            loop.on_joint_command(k * MS, JOINTS, (POLAR.g(q) + 36.0 * ([0.5, 0.8] - q) - 12.0 * qd).tolist())
+        return np.array([loop.world.state()[0]] + [s[3] for s in node.states])
+    first, second = run(), run()
+    assert np.ptp(first, axis=0).max() > 1e-2 and first.tobytes() == second.tobytes()

@@ -113,6 +113,7 @@ def test_bad_effort_array_is_rejected(harness):
     h.probe.pub_array.publish(Float64MultiArray(data=[1.0, 2.0, 3.0]))
     assert h.spin_until(lambda: h.bridge.world.t_ns >= MS)    # the answer completes the handshake
     assert h.bridge.rejected['length'] == 1 and h.bridge.brake_reason == 'no valid command yet'
+    assert h.pause(True).success        # the loop's log lines of both severities reach the node's logger
 
 
 def test_custom_urdf_with_a_joint_list(harness):
@@ -352,6 +353,17 @@ def test_runtime_parameter_changes_are_validated(harness):
     assert described.read_only and 's' in described.description
 
 
+def test_a_world_error_names_the_parameter(ros_context):
+    """The World names its argument q0; the bridge names the parameter initial_positions."""
+    from robot_control.ros.param_table import ParameterError
+    from sim_bridge.bridge_node import SimBridge
+    q0 = [5.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0]       # joint 1 beyond the URDF's +-2.97 rad
+    with pytest.raises(ParameterError, match='^initial_positions: lbr_iiwa_joint_1 = 5.0 is outside') as err:
+        SimBridge(context=ros_context, parameter_overrides=[Parameter('scenario', value='iiwa'),
+                                                            Parameter('initial_positions', value=q0)])
+    assert err.value.name == 'initial_positions'
+
+
 def _run_node(*ros_args, timeout=30):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', PYTHONUNBUFFERED='1')
     return subprocess.run([sys.executable, '-m', 'sim_bridge.bridge_node', '--ros-args', *ros_args],
@@ -405,3 +417,22 @@ def test_params_file_starts_the_lecture_example(ros_context, executor, sig):
             proc.wait(timeout=10)
         executor.shutdown()
         probe.destroy_node()
+
+
+def test_the_urdf_of_the_simulated_robot_is_on_robot_description(ros_context):
+    """Transient local, as robot_state_publisher: a subscriber that comes later still gets it, and it
+    is the robot the world simulates (a heavier polar robot: its generated URDF, mass 2.5 kg)."""
+    from std_msgs.msg import String
+
+    from robot_control.models.urdf_model import UrdfModel
+    from robot_control.ros.qos import DESCRIPTION_QOS
+    h = Harness(ros_context, mode='lockstep', **{'sim_params.m': 2.5})
+    try:
+        got = []
+        late = h.probe.create_subscription(String, 'robot_description', lambda m: got.append(m.data), DESCRIPTION_QOS)
+        assert h.spin_until(lambda: bool(got)), 'no robot_description'
+        model = UrdfModel(got[0], joints=('theta1', 'r'), gravity=(0.0, 0.0, -9.8))
+        np.testing.assert_allclose(model.M([0.0, 0.5])[1, 1], 2.5, rtol=1e-12)
+        h.probe.destroy_subscription(late)
+    finally:
+        h.close()

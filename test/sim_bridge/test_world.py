@@ -119,6 +119,20 @@ def test_gravity_torque_of_the_default_model_does_not_hold_a_heavier_robot(make_
     assert np.abs(drop[-1] - drop[0]).max() > 1e-2
 
 
+def test_a_payload_on_the_tip_is_held_by_the_model_that_knows_it(make_world):
+    """2 kg 5 cm out along the iiwa's last link: g(q) of the model with the payload holds the arm
+    (PyBullet and Pinocchio load the same URDF text); the model without it lets the arm sag."""
+    payload = (2.0, (0.0, 0.0, 0.05))
+    q0 = scenarios.get('iiwa').q0
+    world = make_world('iiwa', payload=payload, surface=False)
+    loaded, bare = for_scenario('iiwa', payload=payload), for_scenario('iiwa')
+    held = hold_with(world, lambda q, qd: loaded.g(q), 1000)
+    assert np.abs(held - held[0]).max() < 1e-4
+    world.reset(q0)
+    sag = hold_with(world, lambda q, qd: bare.g(q), 1000)
+    assert np.abs(sag[-1] - sag[0]).max() > 1e-2
+
+
 # -- 2. free motion ------------------------------------------------------------------------------
 @pytest.mark.parametrize('name', sorted(FREE_STARTS))
 def test_free_motion_matches_rk4_of_the_model(make_world, name):

@@ -1,4 +1,4 @@
-"""The benchmark runs and reports (issue 6); nothing here is timed.
+"""The benchmark runs and reports; nothing here is timed.
 
 `python -m robot_control.tools.bench --quick` must finish and write every key of the interface with a
 finite number. The helpers the figures rest on are checked for correctness: the modern_robotics
@@ -16,7 +16,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-#: the interface of issue 6
+#: the keys every results.json carries (the README table and the targets read them)
 KEYS = (
     'law_us_ct_2dof_median', 'law_us_ct_2dof_p99', 'law_us_ct_7dof_median', 'law_us_hybrid_7dof_median',
     'mr_ct_7dof_us_median', 'pin_rnea_us_median', 'speedup_vs_modern_robotics',

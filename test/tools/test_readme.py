@@ -15,8 +15,8 @@ def test_readme_parameter_tables_match_the_code():
 
 def test_every_declared_parameter_has_a_row():
     text = open(README, encoding='utf-8').read()
-    for rows in (readme_params.controller_rows(), readme_params.bridge_rows()):
-        for name, *_ in rows:
+    for node in readme_params.TABLES:
+        for name, *_ in readme_params.rows(node):
             assert f'| {name} |' in text, name
 
 

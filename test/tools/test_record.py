@@ -19,6 +19,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from robot_control.ros.spin import make_executor
 from robot_control.tools.record import Recorder, bag_info, normalize_type, parse_topic, read_bag
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -131,12 +132,13 @@ def absolute(topic):
 
 
 class Rig:
-    """A publisher node and a recorder node in one context, one executor spun by the test."""
+    """A publisher node and a recorder node in one context, one executor spun by the test
+    ('single': SingleThreadedExecutor, 'events': the EventsExecutor the tools spin)."""
 
-    def __init__(self, ctx):
+    def __init__(self, ctx, executor='single'):
         self.pub_node = Node('rec_test_pub', namespace=NS, context=ctx)
         self.rec_node = Node('rec_test_recorder', namespace=NS, context=ctx)
-        self.executor = SingleThreadedExecutor(context=ctx)
+        self.executor = make_executor(executor, context=ctx)
         self.executor.add_node(self.pub_node)
         self.executor.add_node(self.rec_node)
         self.pubs = {}
@@ -158,6 +160,15 @@ class Rig:
 @pytest.fixture
 def rig(ros_context):
     r = Rig(ros_context)
+    try:
+        yield r
+    finally:
+        r.close()
+
+
+@pytest.fixture(params=['single', 'events'])
+def any_rig(request, ros_context):
+    r = Rig(ros_context, request.param)
     try:
         yield r
     finally:
@@ -299,7 +310,8 @@ def test_sqlite3_storage(rig, tmp_path):
     assert len(msgs) == 5
 
 
-def test_bursts_are_recorded_complete_and_in_order(rig, tmp_path):
+def test_bursts_are_recorded_complete_and_in_order(any_rig, tmp_path):
+    rig = any_rig
     rig.publisher('joint_states', JointState, QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000))
     bag = tmp_path / 'bag'
     N, BURST = 3000, 500  # bursts below the subscription depth (1000): nothing may be dropped
@@ -313,12 +325,13 @@ def test_bursts_are_recorded_complete_and_in_order(rig, tmp_path):
         rate = N / (time.perf_counter() - t0)
     seq = [m.header.stamp.nanosec // 1000 for _, m in read_bag(bag)[absolute('joint_states')]]
     assert seq == list(range(N))
-    print(f'in-process publish+record: {rate:.0f} msg/s')
+    print(f'in-process publish+record, {type(rig.executor).__name__}: {rate:.0f} msg/s')
 
 
-def test_stop_writes_what_dds_delivered_but_the_executor_had_not_handed_over(rig, tmp_path):
+def test_stop_writes_what_dds_delivered_but_the_executor_had_not_handed_over(any_rig, tmp_path):
     """An executor that falls behind (here: not spun at all after the match) must not cost the bag the
-    run's last messages: stop() takes what is waiting on each subscription before it unsubscribes."""
+    run's last messages: stop() has the node's executor hand them over before it unsubscribes."""
+    rig = any_rig
     rig.publisher('joint_states', JointState, QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000))
     bag = tmp_path / 'bag'
     with Recorder(rig.rec_node, bag, ['joint_states']) as recorder:
@@ -329,6 +342,32 @@ def test_stop_writes_what_dds_delivered_but_the_executor_had_not_handed_over(rig
         assert received(recorder) == 0
     seq = [m.header.stamp.nanosec // 1000 for _, m in read_bag(bag)[absolute('joint_states')]]
     assert seq == list(range(200))
+
+
+def test_stop_records_nothing_received_after_it_was_called(any_rig, tmp_path):
+    """A publisher that never pauses (a timer at 2 kHz, run by the very executor stop() spins to hand over
+    what is waiting) neither keeps stop() busy nor gets messages received after the call into the bag."""
+    rig = any_rig
+    pub = rig.publisher('joint_states', JointState, QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000))
+    sent = []
+
+    def tick():
+        pub.publish(joint_state(len(sent)))
+        sent.append(time.time_ns())
+    clock = rig.rec_node.get_clock()
+    recorder = Recorder(rig.rec_node, tmp_path / 'bag', ['joint_states:sensor_msgs/msg/JointState']).start()
+    rig.wait_matched()
+    rig.pub_node.create_timer(0.0005, tick)
+    assert spin_until(rig.executor, lambda: received(recorder) >= 200, 10.0)
+    t_stop = clock.now().nanoseconds
+    t0 = time.monotonic()
+    count = recorder.stop()[absolute('joint_states')]
+    assert time.monotonic() - t0 < 0.5
+    msgs = read_bag(tmp_path / 'bag')[absolute('joint_states')]
+    assert len(msgs) == count >= 200 and msgs[-1][0] <= t_stop + 50_000_000   # stamped on handing over
+    assert [m.header.stamp.nanosec // 1000 for _, m in msgs] == list(range(count))
+    assert len(sent) > count             # the publisher went on meanwhile
+
 
 def test_untyped_topic_waits_boundedly_then_records_once_it_appears(rig, tmp_path):
     bag = tmp_path / 'bag'

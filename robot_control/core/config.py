@@ -1,0 +1,196 @@
+"""ControllerConfig: the immutable, checked snapshot of everything one control tick reads.
+
+The node builds one from its parameters (robot_control.ros), a library user by hand. Creating it
+checks every field (an ArgumentError naming the field) and builds its Law (robot_control.laws.LAWS),
+which checks what that law needs. ControllerCore.configure() swaps a new one in, effective on the
+next tick.
+"""
+import dataclasses
+import math
+
+import numpy as np
+
+from robot_control import validation
+from robot_control.core.tolerances import Tolerances
+from robot_control.gains import ServoGains
+from robot_control.laws import law_class
+from robot_control.models.base import RobotModel
+from robot_control.validation import ArgumentError
+
+FORCE_FEEDBACK = ('sensor', 'model')
+
+
+def _frozen(a):
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ControllerConfig:
+    """Immutable snapshot of everything the per-tick computation reads (checked on creation).
+
+    model: RobotModel (the controller's own, closed form or URDF).
+    law: a name of robot_control.laws.LAWS ('computed_torque', 'independent_joint', 'force', 'hybrid',
+      'gravity_compensation').
+    gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for computed
+      torque; torque gains N m/rad ... for independent_joint), (m,) or one per motion axis for hybrid.
+    force_gains: ServoGains (k,) one per force axis (force and hybrid laws), 1/s^2, 1/s, 1/s^3.
+    integral: integral action on (ki used) or off (ki ignored, no integral state).
+    integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
+    effort_limit: (n,) N m or N, > 0 (inf allowed); None = model.effort_limit.
+    joints: joint names in model order; None = model.joint_names.
+    force_axes: names of the force-controlled task axes (subset of model.task_axes, kept in their order).
+    k_e, x_e: environment stiffness (N/m, > 0) and location (m) per force axis, in force_axes order.
+    force_feedback: 'sensor' (the measured force) or 'model' (f = k_e (x - x_e)).
+    force_lead_time: T, s (>= 0): the force laws use the force predicted T ahead, f + fdot T (a command is
+      held for a control period while a stiff contact's force keeps changing); 0 = the lecture's law.
+    posture_gains: (kp0 1/s^2, kv0 1/s) of the null-space posture (hybrid, redundant arms).
+    move_time: duration of a set_goal() move, s (> 0).
+    force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
+    contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
+      measured force explains, m/s along the axis; > 0, inf = off), robot_control.core.contact.ContactGuard.
+    cartesian_stiffness: six values (x, y, z N/m; rx, ry, rz N m/rad) of the impedance law's K;
+      cartesian_damping: six values (N s/m, N m s/rad), or None for the design of cartesian_damping_ratio;
+      max_pose_error: (m, rad) bounds of the task error the impedance law (and hybrid's target) servo.
+    trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
+      goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
+      (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
+    """
+
+    model: RobotModel
+    law: str = 'computed_torque'
+    gains: ServoGains = None
+    force_gains: ServoGains = None
+    integral: bool = False
+    integral_limit: float = math.inf
+    effort_limit: np.ndarray = None
+    joints: tuple = None
+    force_axes: tuple = ()
+    k_e: np.ndarray = ()
+    x_e: np.ndarray = ()
+    force_feedback: str = 'sensor'
+    force_lead_time: float = 0.0
+    posture_gains: tuple = (25.0, 10.0)
+    move_time: float = 2.0
+    force_ramp_time: float = 0.5
+    contact_max_travel: float = math.inf
+    contact_max_speed: float = math.inf
+    trajectory_tolerance: np.ndarray = 0.0
+    goal_tolerance: np.ndarray = 0.0
+    goal_time: float = 0.0
+    stopped_velocity_tolerance: float = 0.01
+    cartesian_stiffness: tuple = (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0)
+    cartesian_damping: tuple = None
+    cartesian_damping_ratio: float = 1.0
+    max_pose_error: tuple = (0.1, 0.5)
+
+    def __post_init__(self):
+        model = self.model
+        if not isinstance(model, RobotModel):
+            raise ArgumentError('model', f'expected a RobotModel, got {type(model).__name__}')
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        law = law_class(self.law)
+        if self.force_feedback not in FORCE_FEEDBACK:
+            raise ArgumentError('force_feedback', f'unknown {self.force_feedback!r}; expected one of '
+                                                  f'{list(FORCE_FEEDBACK)}')
+        joints = validation.names('joints', model.joint_names if self.joints is None else self.joints)
+        if len(joints) != model.n:
+            raise ArgumentError('joints', f'expected {model.n} names (the model has {model.n} joints '
+                                          f'{list(model.joint_names)}), got {list(joints)}')
+        set_('joints', joints)
+        set_('integral', bool(self.integral))
+        set_('force_lead_time', validation.scalar('force_lead_time', self.force_lead_time, nonnegative=True))
+        set_('integral_limit', float(validation.limit_vector('integral_limit', self.integral_limit, 1)[0]))
+        limit = model.effort_limit if self.effort_limit is None else self.effort_limit
+        set_('effort_limit', _frozen(validation.limit_vector('effort_limits', limit, model.n)))
+        self._set_force_axes(set_)
+        set_('posture_gains', tuple(validation.scalar(name, v, nonnegative=True)
+                                    for name, v in zip(('posture_kp', 'posture_kv'), self.posture_gains)))
+        set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
+        set_('force_ramp_time', validation.scalar('force_ramp_time', self.force_ramp_time, nonnegative=True))
+        for name in ('contact_max_travel', 'contact_max_speed'):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
+                raise ArgumentError(name, f'expected a positive bound (inf = off), got {value!r}')
+            set_(name, float(value))
+        self._set_tolerances(set_)
+        set_('cartesian_damping_ratio', validation.scalar('cartesian_damping_ratio', self.cartesian_damping_ratio,
+                                                          nonnegative=True))
+        limits = validation.vector('max_pose_error', self.max_pose_error, 2)
+        if min(limits.tolist()) <= 0.0:
+            raise ArgumentError('max_pose_error', f'expected two positive bounds (m, rad), got {limits.tolist()}')
+        set_('max_pose_error', tuple(limits.tolist()))
+        set_('_law', law(self))
+
+    def _set_force_axes(self, set_):
+        """force_axes in task-axis order, with k_e and x_e reordered to match, and the mask over the task axes."""
+        task_axes = self.model.task_axes
+        axes = tuple(self.force_axes)
+        unknown = [a for a in axes if a not in task_axes]
+        if unknown:
+            raise ArgumentError('force_axes', f'{unknown} not among the model\'s task axes {list(task_axes)}')
+        if len(set(axes)) != len(axes):
+            raise ArgumentError('force_axes', f'duplicate axes in {list(axes)}')
+        ordered = tuple(a for a in task_axes if a in axes)
+        order = [axes.index(a) for a in ordered]
+        k = len(axes)
+        k_e = validation.vector('k_e', self.k_e, k)[order] if k else np.zeros(0)
+        if np.any(k_e <= 0.0):
+            raise ArgumentError('k_e', f'expected positive stiffness (N/m), got {k_e.tolist()}')
+        set_('force_axes', ordered)
+        set_('k_e', _frozen(k_e))
+        set_('x_e', _frozen(validation.vector('x_e', self.x_e, k)[order] if k else np.zeros(0)))
+        set_('_force_mask', np.array([a in axes for a in task_axes], dtype=bool))
+        self._force_mask.flags.writeable = False
+
+    def _set_tolerances(self, set_):
+        n = self.model.n
+        for name in ('trajectory_tolerance', 'goal_tolerance'):
+            value = validation.per_entry(name, getattr(self, name), n)
+            if min(value.tolist()) < 0.0:
+                raise ArgumentError(name, f'expected tolerances >= 0 (0 = not checked), got {value.tolist()}')
+            set_(name, _frozen(value))
+        set_('goal_time', validation.scalar('goal_time', self.goal_time, nonnegative=True))
+        set_('stopped_velocity_tolerance', validation.scalar('stopped_velocity_tolerance',
+                                                             self.stopped_velocity_tolerance, nonnegative=True))
+        set_('_tolerances', Tolerances(self.trajectory_tolerance, self.goal_tolerance, self.goal_time,
+                                       self.stopped_velocity_tolerance))
+
+    # -- derived ---------------------------------------------------------------------------------
+    @property
+    def tolerances(self):
+        """The trajectory's goal and path tolerances (robot_control.core.tolerances.Tolerances)."""
+        return self._tolerances
+
+    @property
+    def n(self):
+        """Number of joints."""
+        return self.model.n
+
+    @property
+    def control_law(self):
+        """The Law (robot_control.laws.base) of this configuration."""
+        return self._law
+
+    @property
+    def force_mask(self):
+        """Bool (m,) over the model's task axes: True on the force axes (read-only)."""
+        return self._force_mask
+
+    @property
+    def integral_dim(self):
+        """Entries of the error integral (0: the law integrates nothing)."""
+        return self._law.integral_dim
+
+    def law_key(self):
+        """What the law computes with: a change re-initialises the integral (bumpless transfer)."""
+        def arrays(g):
+            return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
+        return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
+                self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
+                self.posture_gains, self.integral_limit)
+
+    def replace(self, **changes):
+        """A copy with `changes` (checked)."""
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,121 @@
+"""What the controller reports on /diagnostics, as plain data (the node turns it into messages).
+
+Five statuses, each (name, level, message, values) with level 'OK' | 'WARN' | 'ERROR' and values
+(key, value) pairs: the joint_states watchdog, effort saturation, rejected inputs, the control law,
+the trajectory (its goal and path tolerances).
+"""
+import dataclasses
+
+
+@dataclasses.dataclass
+class Counters:
+    """The node's own counts: commands sent, trajectories accepted, rejected inputs per source (and
+    the last reason), the wall time of answering a state (ns), whether a wrench was ever measured."""
+
+    sources: tuple
+    commands_sent: int = 0
+    trajectories_accepted: int = 0
+    last_rejection: str = ''
+    wrench_seen: bool = False
+    tick_count: int = 0
+    tick_total_ns: int = 0
+    tick_max_ns: int = 0
+
+    def __post_init__(self):
+        self.rejected = dict.fromkeys(self.sources, 0)
+
+    def reject(self, source, reason):
+        self.rejected[source] += 1
+        self.last_rejection = f'{source}: {reason}'
+
+    def tick(self, ns):
+        """One state answered in `ns` of wall time (message in -> command out)."""
+        self.tick_count += 1
+        self.tick_total_ns += ns
+        self.tick_max_ns = max(self.tick_max_ns, ns)
+
+    @property
+    def tick_mean_us(self):
+        return self.tick_total_ns / self.tick_count / 1e3 if self.tick_count else 0.0
+
+
+def controller_statuses(name, core, watchdog, age, counters):
+    """The statuses of controller `name` (its core, StateWatchdog, the age of the last state in s or
+    None, Counters)."""
+    return [_watchdog(name, core, watchdog, age, counters), _saturation(name, core),
+            _rejected(name, counters), _law(name, core, counters), _trajectory(name, core)]
+
+
+#: the level of each trajectory outcome: a path violation is an error, a missed goal a warning
+OUTCOME_LEVEL = {'': 'OK', 'succeeded': 'OK', 'cancelled': 'OK', 'missed': 'WARN', 'path': 'ERROR'}
+
+
+def _trajectory(name, core):
+    goal = core.goal
+    if goal.active:
+        message = f'following trajectory {goal.goals} (ends at t = {goal.t_end:.3f} s)'
+    elif goal.outcome:
+        message = f'trajectory {goal.goals} {goal.outcome}: {goal.reason}'
+    else:
+        message = 'no trajectory yet'
+    tol = core.config.tolerances
+    return (f'{name}: trajectory', 'OK' if goal.active else OUTCOME_LEVEL[goal.outcome], message,
+            [('goals', goal.goals), ('outcome', goal.outcome or ('executing' if goal.active else 'none')),
+             ('goal_time', tol.goal_time), ('stopped_velocity_tolerance', tol.stopped_velocity)]
+            + [(f'trajectory_tolerance.{j}', float(v)) for j, v in zip(core.config.joints, tol.trajectory)]
+            + [(f'goal_tolerance.{j}', float(v)) for j, v in zip(core.config.joints, tol.goal)])
+
+
+def _watchdog(name, core, watchdog, age, counters):
+    if watchdog.tripped:
+        level, message = 'ERROR', (f'no joint_states for {age:.3f} s (state_timeout {watchdog.timeout:g} s): '
+                                   'not commanding')
+    elif age is None:
+        level, message = 'WARN', 'waiting for the first joint_states'
+    else:
+        level, message = 'OK', 'receiving joint_states'
+    return (f'{name}: joint_states watchdog', level, message,
+            [('state_timeout_s', watchdog.timeout), ('trips', watchdog.trips), ('restarts', core.restarts),
+             ('commands_sent', counters.commands_sent)])
+
+
+def _saturation(name, core):
+    cfg = core.config
+    sat = [j for j, s in zip(cfg.joints, core.saturated) if s]
+    return (f'{name}: effort saturation', 'WARN' if sat else 'OK',
+            f'saturated: {sat}' if sat else 'within effort limits',
+            [('saturated_ticks', core.saturated_ticks), ('ticks', core.ticks)]
+            + [(f'saturated_ticks.{j}', int(c)) for j, c in zip(cfg.joints, core.saturation_counts)]
+            + [(f'effort_limit.{j}', float(v)) for j, v in zip(cfg.joints, cfg.effort_limit)])
+
+
+def _rejected(name, counters):
+    total = sum(counters.rejected.values())
+    return (f'{name}: rejected inputs', 'WARN' if total else 'OK',
+            f'{total} rejected; last {counters.last_rejection}' if total else 'no rejected input',
+            [(f'rejected.{k}', v) for k, v in counters.rejected.items()] + [('last_reason', counters.last_rejection)])
+
+
+def _law(name, core, counters):
+    cfg = core.config
+    level, message = 'OK', f'{cfg.law}{" PID" if cfg.integral else ""}'
+    if core.fallbacks:
+        level, message = 'WARN', f'{message}; gravity-hold fallbacks: {core.fallbacks} (last: {core.last_fallback})'
+    if needs_wrench(cfg) and not counters.wrench_seen:
+        level, message = 'WARN', f'{message}; no ft_sensor/wrench received (force taken as 0)'
+    guard = core.contact_guard
+    if guard is not None and guard.active:
+        level, message = 'ERROR', f'{message}; {guard.reason}'
+    gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', cfg.gains),
+                                                                                ('force_gains', cfg.force_gains))
+             if servo is not None for g in ('kp', 'kv', 'ki')]
+    return (f'{name}: control law', level, message,
+            gains + [('law', cfg.law), ('integral', cfg.integral), ('fallbacks', core.fallbacks),
+             ('contact_trips', guard.trips if guard is not None else 0),
+             ('tick_mean_us', round(counters.tick_mean_us, 1)), ('tick_max_us', round(counters.tick_max_ns / 1e3, 1)),
+             ('ticks', counters.tick_count)])
+
+
+def needs_wrench(cfg):
+    """True when the configured law reads the measured contact force (ft_sensor/wrench)."""
+    return bool(cfg.force_axes) and cfg.control_law.uses_force and cfg.force_feedback == 'sensor'

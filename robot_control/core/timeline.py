@@ -1,0 +1,44 @@
+"""The controller's time line: joint_states stamps (integer ns) -> the core's time, s.
+
+The core's time is seconds since the stamp of the first state (a stamp of 0, the first instant
+of a simulation, is a time like any other). A state whose stamp moves more than `max_jump` s away
+from the previous one, while the controller runs, is refused: a clock that jumped (a simulator
+reset) restarts the controller only once the watchdog has stopped it. References stamped in the
+future (trajectories, force targets) are placed on the same time line.
+"""
+from robot_control import units
+from robot_control.validation import ArgumentError
+
+
+class Timeline:
+    """Stamps -> core time; `max_jump` s (> 0), the largest accepted step between two states."""
+
+    def __init__(self, max_jump):
+        self.max_jump = max_jump
+        self.epoch_ns = None        # stamp of the first state
+        self.last_ns = None         # stamp of the last accepted state
+
+    def accept(self, stamp_ns, running):
+        """The core time (s) of a state stamped `stamp_ns`; ArgumentError naming header.stamp when it is
+        negative or, while `running`, further than max_jump from the previous state."""
+        if stamp_ns < 0:
+            raise ArgumentError('header.stamp', f'negative time {units.seconds(stamp_ns):.9f} s')
+        last = self.last_ns
+        if running and last is not None and abs(stamp_ns - last) > self.max_jump * units.NS_PER_S:
+            raise ArgumentError('header.stamp', f'{units.seconds(stamp_ns - last):+.6g} s from the previous state, '
+                                                f'more than state_timeout {self.max_jump:g} s (a clock reset '
+                                                'restarts the controller once the watchdog trips)')
+        if self.epoch_ns is None:
+            self.epoch_ns = stamp_ns
+        self.last_ns = stamp_ns
+        return units.seconds(stamp_ns - self.epoch_ns)
+
+    def time_of(self, stamp_ns):
+        """The core time of a reference's header.stamp; None for 0 (start now) or before the first state."""
+        if stamp_ns == 0 or self.epoch_ns is None:
+            return None
+        return units.seconds(stamp_ns - self.epoch_ns)
+
+    def ahead(self, stamp_ns):
+        """True when a reference stamped `stamp_ns` lies after the last state (it is then pending)."""
+        return bool(stamp_ns) and self.last_ns is not None and stamp_ns > self.last_ns

@@ -1,0 +1,107 @@
+"""A control law as the controller core runs it: the Law interface and the numbers of one tick.
+
+Each law module holds its equation (a function of checked arrays), the checked public function
+around it, and a Law subclass that the registry (robot_control.laws.LAWS) names. A Law says what it
+needs, so that nothing else has to know the law by its name:
+
+  tracks            'joint': it follows the joint reference (switching between two such laws keeps
+                    the reference); 'task': a task-space or force reference; None: no reference.
+                    A switch that is not joint -> joint restarts the references from the current state.
+  needs_task_space  the model must have a task space (fk, J): the core then measures x, xd, J and
+                    Jdot qd once per tick.
+  uses_force        it reads the force reference and the measured force on the force axes.
+  torque_gains      its designed gains are torques (N m/rad ...), not accelerations: the parameter
+                    layer scales the designed kp, kv, ki by the joint inertia M_ii(q0).
+
+An instance is made for one ControllerConfig: its constructor checks what the law needs of the
+configuration (ArgumentError naming the field) and keeps what the tick reads.
+"""
+import numpy as np
+
+from robot_control.validation import ArgumentError
+
+
+class Tick:
+    """The numbers of one control tick (arrays are overwritten on the next tick).
+
+    Measured: t (s), q, qd (n,). Task state (needs_task_space): x, xd (m,), J (m, n), Jdot_qd (m,).
+    Force feedback on the force axes (uses_force): f, fdot (k,) N and N/s, the force the robot exerts
+    on the environment. References: q_d, qd_d, qdd_d (n,) the joint reference; f_d, fd_d, fdd_d (k,)
+    the force reference; target (x_d, xd_d, xdd_d) (m,) each, a task-space target when one was given
+    (~/target_pose), else None; wrench (m,) a feed-forward wrench (N, N m) or None. What the law derives from them (Law.errors): ref = (pos, vel, acc) and the
+    errors E, Ed in the law's own space (Law.reference_names), which the core integrates and the node
+    publishes on ~/reference and ~/error.
+    """
+
+    __slots__ = ('t', 'q', 'qd', 'x', 'xd', 'J', 'Jdot_qd', 'f', 'fdot', 'q_d', 'qd_d', 'qdd_d',
+                 'f_d', 'fd_d', 'fdd_d', 'target', 'wrench', 'ref', 'E', 'Ed')
+
+    def __init__(self):
+        for name in self.__slots__:
+            setattr(self, name, None)
+
+
+class Law:
+    """One control law of the registry; see the module docstring for the class attributes."""
+
+    name = ''
+    tracks = 'joint'
+    needs_task_space = False
+    uses_force = False
+    torque_gains = False
+
+    def __init__(self, config):
+        self.config = config
+        self.model = config.model
+        if self.needs_task_space and not self.model.task_dim:
+            raise ArgumentError('law', f'{self.name} needs a task space; the model has none (set tip for a '
+                                       'URDF model)')
+        dim = len(self.reference_names)
+        self.E, self.Ed = np.zeros(dim), np.zeros(dim)
+
+    @classmethod
+    def servo_sizes(cls, model, force_axes):
+        """The numbers of motion-servo gains (kp, kv, ki each) the law accepts, the designed one first
+        (empty: no motion servo): one per joint by default."""
+        return (model.n,)
+
+    @property
+    def integral_dim(self):
+        """Entries of the error integral (0: the law has no integral action)."""
+        return self.model.n
+
+    @property
+    def reference_names(self):
+        """Names of the entries of ref, E and Ed: the joints by default."""
+        return self.config.joints
+
+    def integral_gains(self):
+        """(ki, kv) per integral entry (zeros when integral action is off); the core's anti-windup
+        tracks with the time constant sqrt(kv / ki)."""
+        dim = self.integral_dim
+        if not self.config.integral:
+            return np.zeros(dim), np.zeros(dim)
+        return np.array(self.config.gains.ki), np.array(self.config.gains.kv)
+
+    def errors(self, tick):
+        """Set tick.ref, tick.E, tick.Ed for this tick (the joint laws: E = q_d - q, Ed = qd_d - qd)."""
+        np.subtract(tick.q_d, tick.q, out=self.E)
+        np.subtract(tick.qd_d, tick.qd, out=self.Ed)
+        tick.ref, tick.E, tick.Ed = (tick.q_d, tick.qd_d, tick.qdd_d), self.E, self.Ed
+
+    def torque(self, tick, int_E):
+        """tau (n,) for this tick, with the error integral int_E (integral_dim,) or None."""
+        raise NotImplementedError
+
+    def freeze(self, tick, saturated, tau):
+        """Anti-windup by conditional integration: the integral entries to hold this tick, given the
+        joints saturated on the last tick (bool (n,)) and its torque tau (n,). Joint-space laws hold
+        entry i when joint i saturated and E_i pushes further into the limit."""
+        return saturated & (tick.E * tau > 0.0)
+
+    def check_servo_gains(self, field, gains, size):
+        """ArgumentError naming `field` unless gains is a ServoGains of `size` entries."""
+        got = getattr(gains, 'n', None)
+        if got != size:
+            raise ArgumentError(field, f'expected {size} gains for law {self.name}, got '
+                                       f'{got if got is not None else gains!r}')

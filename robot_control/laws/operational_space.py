@@ -1,0 +1,89 @@
+"""Operational-space control (Khatib 1987): joint torques that give a task acceleration.
+
+For an articulated, possibly redundant arm with task X = fk(q) (m,), J (m, n), m <= n:
+
+    tau = J^T (Lambda F + mu + p + f_e) + N^T tau_0,   Lambda = (J M^-1 J^T)^-1,
+    mu = Lambda (J M^-1 C qd - Jdot qd),  p = Lambda J M^-1 g,  Jbar = M^-1 J^T Lambda,
+    N^T = I - J^T Jbar^T,  tau_0 = M qdd_0 + C qd + g,
+
+gives Xdd = F in closed loop with the contact force f_e (the robot's dynamics being
+M qdd + C qd + g + J^T f_e = tau), and the posture acceleration qdd_0 acts in the null space only.
+For a Cartesian robot (J = I) it is the lecture's tau = M_x F + C_x + g_x + f_e (3.1). The same
+torque in joint-space form, which is how it is evaluated (one RNEA call, M^-1 by Cholesky, an
+m x m inverse):
+
+    tau = M qdd* + C qd + g + J^T f_e,  qdd* = qdd_0 + Jbar (F - Jdot qd - J qdd_0)
+        = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e).
+"""
+import numpy as np
+
+from robot_control import validation
+from robot_control.validation import ArgumentError
+
+#: largest accepted condition number of the task Jacobian J(q)
+MAX_JACOBIAN_COND = 1e9
+
+
+def check_jacobian(J):
+    """ArgumentError naming q when the task has more axes than joints or J(q) is (nearly) singular."""
+    m, n = J.shape
+    if m > n:
+        raise ArgumentError('J', f'task dimension {m} exceeds the {n} joints; operational-space control '
+                                 'needs m <= n')
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not sv[-1] * MAX_JACOBIAN_COND > sv[0]:
+        raise ArgumentError('q', f'task Jacobian singular or nearly (singular values {sv.tolist()})')
+
+
+def _task_inertia(model, q, J):
+    """The operational-space inertia Lambda = (J M^-1 J^T)^-1, (m, m), kg and kg m^2; J full rank."""
+    return np.linalg.inv(J @ model._Minv(q) @ J.T)
+
+
+def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda=None):
+    """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e), Lambda = (J M^-1 J^T)^-1.
+
+    Checked arrays: q, qd, qdd_0 (n,); J (m, n) full rank (check_jacobian); Jdot_qd, F (m/s^2), f_e (N) (m,);
+    Lambda: the task inertia when the caller has it already (_task_inertia)."""
+    if Lambda is None:
+        Lambda = _task_inertia(model, q, J)
+    return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (Lambda @ (F - Jdot_qd - J @ qdd_0) + f_e)
+
+
+def _posture_acceleration(q, qd, q_posture, kp0, kv0):
+    """qdd_0 = Kp0 (q_posture - q) - Kv0 qd, (n,): the null-space posture servo."""
+    return kp0 * (q_posture - q) - kv0 * qd
+
+
+def posture_gains(k_posture, n):
+    """(kp0, kv0), each (n,) >= 0, from a (kp, kv) pair of scalars or (n,) arrays, or an object with kp, kv."""
+    if hasattr(k_posture, 'kp'):
+        k_posture = (k_posture.kp, k_posture.kv)
+    try:
+        kp0, kv0 = k_posture
+    except (TypeError, ValueError):
+        raise ArgumentError('k_posture', f'expected a (kp, kv) pair, got {k_posture!r}') from None
+    kp0, kv0 = validation.per_entry('k_posture.kp', kp0, n), validation.per_entry('k_posture.kv', kv0, n)
+    if min(kp0.tolist()) < 0.0 or min(kv0.tolist()) < 0.0:
+        raise ArgumentError('k_posture', f'expected non-negative gains, got {k_posture!r}')
+    return kp0, kv0
+
+
+def posture_acceleration(q, qd, q_posture, k_posture):
+    """qdd_0 = Kp0 (q_posture - q) - Kv0 qd (n,), gains in 1/s^2 and 1/s; q_posture None: damping only."""
+    q = validation.vector('q', q)
+    n = q.shape[0]
+    qd = validation.vector('qd', qd, n)
+    q_posture = q if q_posture is None else validation.vector('q_posture', q_posture, n)
+    kp0, kv0 = posture_gains(k_posture, n)
+    return validation.result('qdd_0', _posture_acceleration(q, qd, q_posture, kp0, kv0))
+
+
+def operational_space(model, q, qd, F, f_e, qdd_0=None):
+    """tau (n,) giving Xdd = F (m,) m/s^2 with contact force f_e (m,) N and null-space acceleration qdd_0 (n,)."""
+    q, qd = validation.vectors(model.n, q=q, qd=qd)
+    F, f_e = validation.vectors(model.task_dim, F=F, f_e=f_e)
+    qdd_0 = np.zeros(model.n) if qdd_0 is None else validation.vector('qdd_0', qdd_0, model.n)
+    x, J, Jdot_qd = model._task(q, qd)
+    check_jacobian(J)
+    return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0))

@@ -1,0 +1,310 @@
+"""The configured controller: its core and its ROS interfaces, from configure to cleanup.
+
+A ControllerSession exists while the managed controller node (robot_control.ros.controller_node)
+is configured. It owns the ControllerCore, the publishers, subscriptions and timers, and turns
+messages into core calls: joint_states -> command (only while active), trajectories and force
+references, the watchdog, /diagnostics. The rclpy-free core decides: the time line of the stamps
+(robot_control.core.timeline), the watchdog (core.watchdog), the pairing of a state with the wrench
+of its own tick (core.pairing: a state waits in it, answered from the wrench callback or a one-shot
+timer), the law and its references (core.controller), the content of /diagnostics (core.status).
+
+joint_states is taken as serialized bytes and read by robot_control.ros.cdr (rclpy decodes what
+that declines, e.g. big-endian CDR); the command is written as serialized bytes too. Only reading
+the state, the law and the publish run before the command goes out; the bookkeeping follows.
+"""
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rclpy.clock import Clock, ClockType
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
+
+from robot_control import units
+from robot_control.core.controller import ControllerCore
+from robot_control.core.pairing import WrenchPairing
+from robot_control.core.status import Counters, controller_statuses, needs_wrench
+from robot_control.core.timeline import Timeline
+from robot_control.core.watchdog import StateWatchdog
+from robot_control.ros import cdr, conversions
+from robot_control.ros.reference_inputs import ReferenceInputs
+from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
+from robot_control.core.throttle import Throttle
+
+#: rejected-input sources, in the order /diagnostics lists them
+INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
+#: s of wall time a state waits for the wrench of its own tick (paired streams only, core.pairing)
+WRENCH_WAIT = 0.005
+#: smallest watchdog check period, s
+MIN_WATCHDOG_PERIOD = 0.001
+#: throttle of the warnings about rejected input, s
+WARN_THROTTLE = 1.0
+
+
+class ControllerSession:
+    """The configured controller on `node`, from the parameter Snapshot `snapshot` (values, config).
+
+    Commands only while active (activate / deactivate); destroy() releases every interface.
+    """
+
+    def __init__(self, node, snapshot):
+        self._node = node
+        self.log = node.get_logger()
+        cfg = snapshot.config
+        self.active = False
+        self._core = ControllerCore(cfg)
+        self._joints = cfg.joints
+        self._task_axes = cfg.model.task_axes
+        self.counters = Counters(INPUTS)
+        self.timeline = Timeline(snapshot.values['state_timeout'])
+        self._watchdog = StateWatchdog(snapshot.values['state_timeout'])
+        self._pairing = WrenchPairing()
+        self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
+        self._contact_trips = 0
+        self._inputs = ReferenceInputs(self)
+        self._first_state_ns = None
+        self.allow_partial = snapshot.values['allow_partial_joints_goal']
+        self._make_messages(cfg)
+        self._apply_references(snapshot.values, initial=True)
+        self._make_interfaces(snapshot.values, cfg)
+
+    @property
+    def core(self):
+        """The ControllerCore (read it, do not drive it from another thread)."""
+        return self._core
+
+    @property
+    def watchdog(self):
+        """The joint_states StateWatchdog."""
+        return self._watchdog
+
+    def activate(self):
+        """Command from the next state on, starting from that state (the core restarts there: no jump)."""
+        self._core.stop()
+        self.active = True
+
+    def deactivate(self):
+        """Stop commanding: states are no longer answered (the robot's driver then acts on its own
+        command timeout: the bridge engages its brakes)."""
+        self.active = False
+        self._core.stop()
+        self._wrench_timer.cancel()
+        self._pairing = WrenchPairing()
+
+    def destroy(self):
+        """Release every publisher, subscription and timer."""
+        self.active = False
+        node = self._node
+        for pub in (self._cmd_pub, self._array_pub, self._ref_pub, self._err_pub, self._diag_pub):
+            if pub is not None:
+                node.destroy_publisher(pub)
+        for sub in self._subs + [self._ft_sub]:
+            if sub is not None:
+                node.destroy_subscription(sub)
+        for timer in (self._wrench_timer, self._watchdog_timer, self._diag_timer):
+            node.destroy_timer(timer)
+
+    def apply(self, old, snapshot, changed):
+        """A run-time parameter change the engine committed (`old`, `snapshot`: Snapshots before and after)."""
+        self._core.configure(snapshot.config)
+        self._set_ft_subscription(snapshot.config)
+        values = snapshot.values
+        self._apply_references(values, changed=changed, old=old.values)
+        self.allow_partial = values['allow_partial_joints_goal']
+        if 'state_timeout' in changed:
+            self._set_watchdog(values['state_timeout'])
+        if 'diagnostics_period' in changed:
+            self._set_diagnostics_timer(values['diagnostics_period'])
+        if 'publish_effort_array' in changed:
+            self._set_array_publisher(values['publish_effort_array'])
+
+    def _make_messages(self, cfg):
+        """Readers and writers of the messages the loop handles, made once."""
+        self._reader = conversions.JointStateReader(cfg.joints)
+        # joint_states in and the command out as serialized bytes (robot_control.ros.cdr)
+        self._state_decoder = cdr.JointStateDecoder(arrays=False)    # floats: checked before any numpy call
+        self._command_encoder = cdr.JointStateEncoder(cfg.joints, fields=('effort',))
+        self._effort_array = Float64MultiArray()
+        self._reference_msg = JointState()
+        self._error_msg = JointState()
+        self._f_meas = np.zeros(len(self._task_axes))
+
+    def _make_interfaces(self, values, cfg):
+        node = self._node
+        self._cmd_pub = node.create_publisher(JointState, 'robot_joint_commands', CONTROL_PUB_QOS)
+        self._array_pub = None
+        self._set_array_publisher(values['publish_effort_array'])
+        self._ref_pub = node.create_publisher(JointState, '~/reference', REFERENCE_PUB_QOS)
+        self._err_pub = node.create_publisher(JointState, '~/error', REFERENCE_PUB_QOS)
+        self._diag_pub = node.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._wrench_timer = node.create_timer(WRENCH_WAIT, self._on_wrench_wait_over, clock=self._steady,
+                                               autostart=False)
+        self._ft_sub = None
+        self._set_ft_subscription(cfg)
+        inputs = self._inputs
+        self._subs = [node.create_subscription(JointState, 'joint_states', self._on_joint_states_raw, CONTROL_QOS,
+                                               raw=True)] + [
+            node.create_subscription(kind, topic, callback, REFERENCE_QOS)
+            for kind, topic, callback in ((JointTrajectory, '~/joint_trajectory', inputs.on_trajectory),
+                                          (WrenchStamped, '~/wrench_reference', inputs.on_wrench_reference),
+                                          (PoseStamped, '~/target_pose', inputs.on_target_pose),
+                                          (WrenchStamped, '~/target_wrench', inputs.on_target_wrench))]
+        self._watchdog_timer = self._diag_timer = None
+        self._set_watchdog(values['state_timeout'])
+        self._set_diagnostics_timer(values['diagnostics_period'])
+
+    # -- state -> command --------------------------------------------------------------------------
+    def _on_joint_states_raw(self, data):
+        """joint_states as DDS delivered it: decoded by robot_control.ros.cdr, or by rclpy when the fast
+        decoder declines (e.g. big-endian CDR from another vendor)."""
+        if not self.active:
+            return
+        msg = self._state_decoder.decode(data)
+        msg = deserialize_message(data, JointState) if msg is None else msg
+        if self._first_state_ns is None:
+            self._first_state_ns = conversions.stamp_to_ns(msg.header.stamp)
+        if self._ft_sub is None:
+            self._answer(msg)
+            return
+        first = self._pairing.last_state_ns is None
+        publisher = first and self._node.count_publishers(self._ft_sub.topic_name) > 0
+        for state in self._pairing.state(conversions.stamp_to_ns(msg.header.stamp), msg, publisher):
+            self._answer(state)
+        if self._pairing.held is not None:
+            self._wrench_timer.reset()
+
+    def _on_ft_sensor(self, msg):
+        try:
+            f = conversions.wrench_force(msg, self._task_axes)
+        except ValueError as exc:  # keep the last valid measurement
+            self.reject('ft_sensor_wrench', exc)
+            return
+        self._f_meas[:] = f
+        self.counters.wrench_seen = True
+        for state in self._pairing.wrench(conversions.stamp_to_ns(msg.header.stamp)):
+            self._wrench_timer.cancel()
+            self._answer(state)
+
+    def _on_wrench_wait_over(self):
+        self._wrench_timer.cancel()
+        for state in self._pairing.release():
+            self._answer(state)
+
+    def _answer(self, msg):
+        """State -> command. Only what the command needs runs before it is published (in lockstep the
+        simulator waits for it); the bookkeeping follows."""
+        t_in = time.perf_counter_ns()
+        stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
+        try:
+            q, qd = self._reader.read(msg)
+            t = self.timeline.accept(stamp_ns, running=self._core.active)
+        except ValueError as exc:
+            self.reject('joint_states', exc)
+            return
+        tau = self._core.update_checked(t, q, qd, self._f_meas)
+        self._cmd_pub.publish(self._command_encoder.encode(stamp_ns, effort=self._core.tau_values))
+        if self._array_pub is not None:
+            self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
+        self.counters.tick(time.perf_counter_ns() - t_in)
+        self._after_answer(stamp_ns)
+
+    def _after_answer(self, stamp_ns):
+        """Bookkeeping of an answered state: watchdog, counts, ~/reference, ~/error, diagnostics."""
+        recovered = self._watchdog.fresh(self._node.get_clock().now().nanoseconds, time.monotonic_ns())
+        self.counters.commands_sent += 1
+        if self.counters.commands_sent == 1:
+            self.log.info(f'loop closed: the first command answers the state stamped '
+                                   f'{units.seconds(stamp_ns):.3f} s (first state received: '
+                                   f'{units.seconds(self._first_state_ns):.3f} s)')
+        if self._core.goal.outcome:
+            self._inputs.report_goal()
+        if recovered:
+            self.log.info('joint_states are back: restarting from the current state')
+        guard = self._core.contact_guard
+        if guard is not None and guard.trips != self._contact_trips:
+            self._contact_trips = guard.trips
+            self.log.error(guard.reason)
+            self.publish_diagnostics()
+        # ~/reference and ~/error are VOLATILE: with no subscriber the message is not even built
+        names = self._core.reference_names
+        if self._ref_pub.get_subscription_count():
+            pos, vel, acc = self._core.reference
+            self._ref_pub.publish(conversions.joint_state(names, stamp_ns, pos, vel, acc, out=self._reference_msg))
+        if self._err_pub.get_subscription_count():
+            E, Ed = self._core.error
+            self._err_pub.publish(conversions.joint_state(names, stamp_ns, E, Ed, self._core.integral_value,
+                                                          out=self._error_msg))
+        if recovered:
+            self.publish_diagnostics()
+
+    def reject(self, source, reason):
+        self.counters.reject(source, reason)
+        if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.core.throttle
+            self.log.warning(f'rejected {self.counters.last_rejection}')
+
+    # -- watchdog and diagnostics ------------------------------------------------------------------
+    def _set_watchdog(self, timeout):
+        if self._watchdog_timer is not None:
+            self._node.destroy_timer(self._watchdog_timer)
+        self._watchdog.timeout = self.timeline.max_jump = timeout
+        # on the steady clock: with use_sim_time a dead simulator also stops /clock
+        self._watchdog_timer = self._node.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog,
+                                                 clock=self._steady)
+
+    def _check_watchdog(self):
+        now, steady = self._node.get_clock().now().nanoseconds, time.monotonic_ns()
+        if self._core.active and self._watchdog.check(now, steady):
+            self._core.stop()
+            self.log.error(f'no joint_states for {self._watchdog.age(now, steady):.3f} s (state_timeout '
+                                    f'{self._watchdog.timeout:g} s): stopped commanding')
+            self.publish_diagnostics()
+
+    def _set_diagnostics_timer(self, period):
+        if self._diag_timer is not None:
+            self._node.destroy_timer(self._diag_timer)
+        self._diag_timer = self._node.create_timer(period, self.publish_diagnostics, clock=self._steady)
+
+    def diagnostics(self):
+        """The DiagnosticStatus list /diagnostics carries now."""
+        name = self._node.get_fully_qualified_name().lstrip('/')
+        age = self._watchdog.age(self._node.get_clock().now().nanoseconds, time.monotonic_ns())
+        return [conversions.diagnostic_status(*status, name)
+                for status in controller_statuses(name, self._core, self._watchdog, age, self.counters)]
+
+    def publish_diagnostics(self):
+        self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self._node.get_clock().now().nanoseconds))
+
+    def _apply_references(self, values, initial=False, changed=(), old=None):
+        k = len(self._core.config.force_axes)
+        if values['q_d'] and (initial or 'q_d' in changed):
+            self._core.set_goal(values['q_d'])
+        if k and (initial or 'f_d' in changed or values['force_axes'] != old['force_axes']):
+            self._core.set_force_reference(values['f_d'] or np.zeros(k))
+
+    def _set_ft_subscription(self, cfg):
+        """Subscribe ft_sensor/wrench only while the law reads the measured force: each message wakes
+        the executor, at the bridge's control rate."""
+        needed = needs_wrench(cfg)
+        if needed and self._ft_sub is None:
+            self._f_meas[:] = 0.0
+            self.counters.wrench_seen = False
+            self._pairing = WrenchPairing()
+            self._ft_sub = self._node.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor,
+                                                    CONTROL_QOS)
+        elif not needed and self._ft_sub is not None:
+            self._node.destroy_subscription(self._ft_sub)
+            self._ft_sub = None
+            self._wrench_timer.cancel()
+            for state in self._pairing.release():
+                self._answer(state)
+
+    def _set_array_publisher(self, enabled):
+        if enabled and self._array_pub is None:
+            self._array_pub = self._node.create_publisher(Float64MultiArray, 'effort_controller/commands', CONTROL_PUB_QOS)
+        elif not enabled and self._array_pub is not None:
+            self._node.destroy_publisher(self._array_pub)
+            self._array_pub = None

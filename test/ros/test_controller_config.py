@@ -1,0 +1,83 @@
+"""The controller's parameter values -> ControllerConfig, without rclpy (robot_control.ros.controller_config)."""
+import numpy as np
+import pytest
+
+from robot_control import scenarios
+from robot_control.laws import LAWS
+from robot_control.models import make_model
+from robot_control.ros import params
+from robot_control.ros.controller_config import ConfigBuilder
+from robot_control.ros.param_table import ParameterError
+from robot_control.validation import ArgumentError
+
+
+def _values(**changes):
+    return params.TABLE.validate(changes)
+
+
+@pytest.mark.parametrize('law', sorted(LAWS))
+def test_every_law_builds_from_its_scenario_with_designed_gains(law):
+    """Each registered law, on a scenario it fits, gets as many motion gains as it asks for."""
+    scenario = {'force': 'force_1dof', 'hybrid': 'hybrid_cartesian_xy'}.get(law, 'polar_two_link')
+    cfg = ConfigBuilder()(_values(scenario=scenario, law=law))
+    sizes = LAWS[law].servo_sizes(cfg.model, cfg.force_axes)
+    assert (cfg.gains is None) == (not sizes) and (not sizes or cfg.gains.n == sizes[0])
+
+
+def test_the_lecture_example_designs_kp_36_kv_12():
+    cfg = ConfigBuilder()(_values(scenario='polar_two_link'))
+    np.testing.assert_array_equal(cfg.gains.kp, [36.0, 36.0])
+    np.testing.assert_array_equal(cfg.gains.kv, [12.0, 12.0])
+    assert cfg.model.m == 2.0 and cfg.joints == ('theta1', 'r') and cfg.force_gains is None
+
+
+def test_the_model_is_kept_while_its_parameters_do_not_change():
+    build = ConfigBuilder()
+    first = build(_values(scenario='polar_two_link'))
+    assert build(_values(scenario='polar_two_link', zeta=2.0)).model is first.model
+    heavier = build(_values(scenario='polar_two_link', **{'model_params.m': 3.0}))
+    assert heavier.model is not first.model and heavier.model.m == 3.0
+
+
+def test_independent_joint_designs_torque_gains_from_the_inertia_at_the_scenario_start():
+    cfg = ConfigBuilder()(_values(scenario='polar_two_link', law='independent_joint'))
+    model = make_model('polar_two_link', m=2.0, gravity=9.8)
+    diag = np.diag(model.M(np.array(scenarios.get('polar_two_link').q0)))
+    np.testing.assert_allclose(cfg.gains.kp, 36.0 * diag, rtol=1e-12)
+
+
+def test_hybrid_gains_per_task_axis_or_per_motion_axis():
+    base = dict(scenario='hybrid_cartesian_xy', law='hybrid')
+    assert ConfigBuilder()(_values(**base)).gains.n == 2
+    cfg = ConfigBuilder()(_values(**base, kp=[50.0], kv=[10.0]))
+    assert cfg.gains.n == 1 and cfg.force_gains.n == 1
+
+
+@pytest.mark.parametrize('changes, name, match', [
+    ({'kp': [36.0, 36.0, 36.0]}, 'kp', 'expected 2 values'),
+    ({'zeta': 0.5}, 'zeta', '0.5 breaks the rule zeta >= 1'),
+    ({'q_d': [0.1]}, 'q_d', r'expected empty or 2 values \(one per joint\), got 1'),
+    ({'law': 'force'}, 'law', 'force is the 1-DOF force servo'),
+])
+def test_errors_name_the_parameter(changes, name, match):
+    with pytest.raises(ArgumentError, match=match) as err:
+        ConfigBuilder()(_values(scenario='polar_two_link', **changes))
+    rows, _ = params.TABLE.resolve()
+    assert rows.error(err.value).name == name
+
+
+def test_a_servo_gain_error_names_the_force_gain():
+    """ServoGains names kv; the force servo's is force_kv (values that bypass the table's rules)."""
+    values = dict(_values(scenario='hybrid_cartesian_xy', law='hybrid'), force_kv=(-1.0,))
+    with pytest.raises(ParameterError, match=r'^force_kv: expected non-negative gains') as err:
+        ConfigBuilder()(values)
+    assert err.value.name == 'force_kv'
+
+
+def test_an_invalid_robot_description_is_named_as_such():
+    values = _values(model='urdf', robot_description='<robot name="r"><link name="a"/>')
+    with pytest.raises(ParameterError, match='^robot_description: ') as err:
+        ConfigBuilder()(values)
+    assert err.value.name == 'robot_description'
+    with pytest.raises(ParameterError, match='^urdf: model .urdf. needs urdf'):
+        ConfigBuilder()(_values(model='urdf'))
