@@ -9,6 +9,8 @@
 - Processes inside run `ip netns exec <ns> ...` with /dev/shm of their host bind-mounted over the
   machine's (one directory per namespace), so the two hosts share nothing but the link, as two
   computers would; processes of the same host still share memory, as DDS expects.
+- Loop.capture(): tcpdump on a host's end of the link, counting the packets a filter matches (to show
+  what crossed the link, e.g. no multicast). tcpdump is optional: CAPTURE_UNAVAILABLE says why not.
 - `python test/two_hosts.py observe ...`: an observer node run on a host: receive times and stamps of
   joint_states and robot_joint_commands, the /diagnostics statuses, written as JSON on SIGINT.
 - `python test/two_hosts.py node --publish-log PATH MODULE ARGS`: MODULE's main(ARGS) with every
@@ -16,6 +18,7 @@
 """
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -27,6 +30,8 @@ NS = 1_000_000_000
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: second octet of the test subnets: 10.213.<k>.0/24, k from the pid
 SUBNET_PREFIX = '10.213'
+#: why Loop.capture cannot run here (None: it can)
+CAPTURE_UNAVAILABLE = None if shutil.which('tcpdump') else 'no tcpdump to count the packets on the link'
 
 
 def _ip(*args, check=True):
@@ -205,6 +210,24 @@ class Loop:
                 *ros_args(self.config, **params)]
         self.nodes[name] = self._start(name, host, argv)
         return self.nodes[name]
+
+    def capture(self, host, name, expression, timeout=10.0):
+        """Start tcpdump on `host`'s end of the link counting the packets that match `expression` (a pcap
+        filter, e.g. 'udp and ip multicast'), both directions; returns once it listens. captured(name)
+        gives the count after stop()."""
+        argv = ['tcpdump', '-i', self.net.dev[host], '-n', '-l', '-q', '-p', expression]
+        env = dict(os.environ)
+        p = self.procs.start(name, self.net.argv(host, argv), env, os.path.join(self.out, f'{name}.log'))
+        self.wait_for(lambda: 'listening on' in p.log_tail(), timeout, f'tcpdump {name} to listen')
+        return p
+
+    def captured(self, name):
+        """The number of packets capture `name` matched (after stop(): tcpdump prints it on exit)."""
+        with open(os.path.join(self.out, f'{name}.log')) as f:
+            found = re.search(r'^(\d+) packets? captured', f.read(), re.M)
+        if found is None:
+            raise RuntimeError(f'capture {name}: no packet count in its log')
+        return int(found.group(1))
 
     def observer(self, host, topics, joints=('theta1', 'r')):
         name = f'observer_{host}'

@@ -45,10 +45,14 @@ pytestmark = pytest.mark.skipif(REASON is not None, reason=f'two hosts need netw
 
 @pytest.fixture(scope='module', autouse=True)
 def figures(request):
-    """Prints and writes the figures the tests measured."""
+    """Prints and writes the figures the tests measured, with the number of tests of this module that ran and
+    failed (`tests_run`, `tests_failed`: the README's table takes the figures of a whole, passing run only)."""
+    failed_before = request.session.testsfailed
     yield FIGURES
     if not FIGURES:
         return
+    FIGURES['tests_failed'] = request.session.testsfailed - failed_before
+    FIGURES['tests_run'] = sum(1 for item in request.session.items if item.module is request.module)
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, 'figures.json')
     with open(path, 'w') as f:
@@ -56,6 +60,19 @@ def figures(request):
     text = f'\ntwo-host figures, {path}:\n' + '\n'.join(f'  {k}: {v}' for k, v in sorted(FIGURES.items()))
     reporter = request.config.pluginmanager.getplugin('terminalreporter')
     (reporter.write_line if reporter is not None else print)(text)
+
+
+MULTICAST = 'udp and ip multicast'   # pcap filter: what SPDP's multicast announcements are
+
+
+def capture_multicast(loop):
+    """Count the multicast UDP packets on host a's end of the link (both ways), where tcpdump is there."""
+    if th.CAPTURE_UNAVAILABLE is None:
+        loop.capture('a', 'multicast', MULTICAST)
+
+
+def multicast_packets(loop):
+    return None if th.CAPTURE_UNAVAILABLE else loop.captured('multicast')
 
 
 def loop_closed(loop, host='a', commands=50):
@@ -74,6 +91,7 @@ def realtime():
     """The realtime run: SUBNET discovery, the link down for OUTAGE s while the arm moves."""
     with DomainClaim(DOMAINS) as claim, th.TwoHosts() as net, th.Loop(net, claim.domain_id,
                                                                       os.path.join(OUT, 'realtime')) as loop:
+        capture_multicast(loop)
         loop.observer('a', ('joint_states', 'commands', 'diagnostics'))
         loop.observer('b', ('diagnostics',))
         loop.node('bridge', 'a', 'sim_bridge.bridge_node', mode='realtime')
@@ -88,6 +106,7 @@ def realtime():
         rss_after = loop.rss_kb()
         loop.stop()
         res = loop.results()
+        res['multicast_packets'] = multicast_packets(loop)
     res.update(t_down=t_down, t_up=t_up, rss_before=rss_before, rss_after=rss_after,
                packets_per_s={k: (c1[k] - c0[k]) / ((t1 - t0) / NS) for k in ('tx_packets', 'rx_packets')})
     return res
@@ -146,18 +165,21 @@ def _statuses(obs, suffix, t0=0, t1=np.inf):
 
 
 def test_the_bridge_brakes_within_command_timeout_and_says_so(realtime):
-    """/diagnostics says 'brakes engaged: stale command' at a simulation time at most command_timeout after
-    the one at which the last command arrived (commands in flight still arrive after the link went down),
-    give or take 5 ticks: 'more than' command_timeout, the tick's granularity, when the observer and the
-    bridge each took the command."""
-    states, commands = _arrays(realtime['observer_a'])
-    last_command = _stamp_at(states, _window(commands, 0, realtime['t_up'])[-1, 0])
-    engaged = [s for t, s, level, msg, v in _statuses(realtime['observer_a'], ': brakes', realtime['t_down'])
+    """After the link went down, /diagnostics says 'brakes engaged: stale command', in a message whose commands
+    status gives the age of the last valid command at that moment (simulation time, the bridge's own
+    count): more than command_timeout by at most two control periods (the brakes are checked before
+    each tick)."""
+    diagnostics = realtime['observer_a']['diagnostics']
+    engaged = [(t, s) for t, s, level, msg, v in _statuses(realtime['observer_a'], ': brakes', realtime['t_down'])
                if v['engaged'] == 'True' and 'stale command' in msg]
     assert engaged, 'no "brakes engaged: stale command" on /diagnostics after the link went down'
-    after = (engaged[0] - last_command) / MS
-    FIGURES['realtime_outage_brakes_after_last_command_ms'] = round(after, 1)
-    assert after <= COMMAND_TIMEOUT_NS / MS + 5, f'brakes engaged {after:.1f} ms after the last command'
+    ages = [float(v['command_age']) for t, s, name, level, msg, v in diagnostics
+            if (t, s) == engaged[0] and name.endswith(': commands')]
+    assert len(ages) == 1, f'{len(ages)} commands statuses beside the first brakes engaged'
+    age_ms = ages[0] * 1e3
+    FIGURES['realtime_outage_brakes_command_age_ms'] = round(age_ms, 1)
+    assert COMMAND_TIMEOUT_NS / MS < age_ms <= (COMMAND_TIMEOUT_NS + 2 * PERIOD_NS) / MS, \
+        f'brakes engaged {age_ms:.1f} ms after the last valid command (command_timeout {COMMAND_TIMEOUT_NS / MS} ms)'
 
 
 def test_the_controller_trips_reports_error_and_keeps_its_diagnostics_going(realtime):
@@ -234,6 +256,7 @@ def lockstep():
                                                           static_peers=True) as loop:
             routes = {h: net.routes(h, SPDP_MULTICAST) for h in ('a', 'b')}
             c0 = net.counters('a')
+            capture_multicast(loop)
             loop.observer('a', ('joint_states', 'commands', 'diagnostics'))
             loop.node('bridge', 'a', 'sim_bridge.bridge_node', mode='lockstep')
             loop.node('controller', 'b', 'robot_control.ros.controller_node', q_d=Q_D)
@@ -243,6 +266,7 @@ def lockstep():
             c1 = net.counters('a')
             loop.stop()
             res = loop.results()
+            res['multicast_packets'] = multicast_packets(loop)
     res.update(one_host=one_host['observer_a'], t_down=t_down, t_up=t_up, multicast_routes=routes,
                packets={k: c1[k] - c0[k] for k in ('tx_packets', 'rx_packets')})
     return res
@@ -257,15 +281,21 @@ def _ticks(rows):
     return out
 
 
-def test_discovery_without_multicast_by_static_peers(lockstep):
-    """No host has a route for multicast, so SPDP multicast cannot find the other host; with
-    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_STATIC_PEERS = the other host the loop closes all
-    the same, over the link."""
+def test_discovery_without_multicast_by_static_peers(lockstep, realtime):
+    """With ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_STATIC_PEERS = the other host (no host has a
+    route for multicast) the loop closes over the link, and not one multicast packet crosses it; the same
+    capture counts the multicast announcements of the SUBNET run (it sees them where there are some)."""
     assert lockstep['multicast_routes'] == {'a': False, 'b': False}
     _, commands = _arrays(lockstep['observer_a'])
     assert len(commands) > 500, f'{len(commands)} commands reached the bridge'
     FIGURES['lockstep_static_peers_packets_a_to_b'] = lockstep['packets']['tx_packets']
     assert lockstep['packets']['tx_packets'] > 500 and lockstep['packets']['rx_packets'] > 500
+    if th.CAPTURE_UNAVAILABLE:
+        pytest.skip(f'the loop closed; {th.CAPTURE_UNAVAILABLE}, so the absence of multicast is not shown')
+    FIGURES['lockstep_static_peers_multicast_packets'] = lockstep['multicast_packets']
+    FIGURES['realtime_subnet_multicast_packets'] = realtime['multicast_packets']
+    assert realtime['multicast_packets'] > 0, 'the capture saw no multicast in the SUBNET run either'
+    assert lockstep['multicast_packets'] == 0, f'{lockstep["multicast_packets"]} multicast packets on the link'
 
 
 def test_lockstep_across_the_link_is_bit_identical_to_one_host(lockstep):
