@@ -39,8 +39,9 @@ Diagnostics (`diagnostics()`): three `Status` entries, `pacing` (mode, sim_time,
 control_ticks, ...; lockstep: republished_states, late_commands, future_commands; realtime:
 achieved_real_time_factor, overruns, deadline hits and misses, latency percentiles), `commands`
 (accepted, rejected and rejected_<reason> counts, last_reject_reason, command_age, command_timeout,
-outdated_commands, publishers per topic, publisher_conflicts) and `brakes` (engaged, reason, events). The node publishes them every
-diagnostics_period and the loop asks for them at once when the brakes change or on pause/resume.
+outdated_commands, publishers per topic, publisher_conflicts) and `brakes` (engaged, reason,
+events). The node publishes them every diagnostics_period and the loop asks for them at once when
+the brakes change or on pause/resume.
 """
 import abc
 import dataclasses
