@@ -12,7 +12,7 @@ setup(
     package_data={PACKAGE: ['urdf/*.urdf', 'ros/fastdds_profile.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
-        ('share/' + PACKAGE, ['package.xml']),
+        ('share/' + PACKAGE, ['package.xml', 'LICENSE', 'CHANGELOG.rst']),
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
         ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py')),
         ('share/' + PACKAGE + '/urdf', glob(PACKAGE + '/urdf/*.urdf')),
@@ -30,6 +30,7 @@ setup(
             'controller_node = robot_control.ros.controller_node:main',
             'sim_bridge_node = sim_bridge.bridge_node:main',
             'record = robot_control.tools.record:main',
+            'plot = robot_control.tools.plot:main',
         ],
     },
 )

@@ -1,4 +1,4 @@
-"""Test fixtures: DDS stays on loopback, on a domain id private to this test run (DESIGN §6)."""
+"""Test fixtures: DDS stays on loopback, on a domain id private to this test run."""
 import os
 import sys
 

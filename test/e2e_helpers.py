@@ -86,3 +86,100 @@ def physics_summary(data, experiment_name, duration):
     s = demo_metrics.summarize(data, demo_experiments.get(experiment_name), 'lockstep', duration)
     return {k: s[k] for k in PHYSICS_KEYS}
 
+
+
+class Lockstep:
+    """One lockstep loop (bridge and controller processes with config/<scenario>.yaml) driven step by step
+    from this process (robot_control.tools.demo.LiveRun): the bridge starts paused at t = 0; advance(t)
+    runs the simulation until the command of the tick at t s has arrived and pauses it again, so
+    references sent and parameters set between two advances take effect at a known tick.
+    Use as a context manager on a claimed domain: every process is stopped on exit."""
+
+    def __init__(self, domain_id, log_dir, scenario, bridge=None, controller=None):
+        from robot_control.tools import demo_procs
+        self.live = demo.LiveRun(domain_id, demo_procs.ros_env(domain_id), log_dir, lambda *a, **k: None)
+        self.scenario, self.bridge_params, self.controller_params = scenario, bridge or {}, controller or {}
+        self._bridge_client = None
+
+    def __enter__(self):
+        try:
+            self.live.start_nodes(self.scenario, {'mode': 'lockstep', **self.bridge_params}, self.controller_params)
+            self.live.wait_for_first_tick('lockstep')
+        except BaseException:
+            self.live.close()
+            raise
+        return self
+
+    def __exit__(self, *exc):
+        self.live.close()
+        return False
+
+    @property
+    def control(self):
+        """The run's demo_ros.RunControl: trajectory publisher, /rosout log of the nodes."""
+        return self.live.control
+
+    def advance(self, t):
+        """Resume, run until the command of the tick at t s (simulation time) has arrived, pause."""
+        self.live.resume()
+        self.live.run_until(int(round(t * demo.NS)), demo.ForceSchedule((), (), 0, None),
+                            demo.Progress(self.live.collector, 0, {}, (), None))
+        self.live.pause()
+
+    def send_trajectory(self, joints, times, positions, velocities=None, accelerations=None, stamp_ns=0):
+        """Publish a JointTrajectory on /controller/joint_trajectory; wait until the controller logs that it
+        accepted it (or cancelled the motion, for an empty one); RuntimeError naming a rejection."""
+        from robot_control.ros import conversions
+        control = self.control
+        mark = len(control.log)
+        control.traj_pub.publish(conversions.joint_trajectory(joints, times, positions, velocities, accelerations,
+                                                              stamp_ns=stamp_ns))
+        said = ('empty trajectory', 'trajectory accepted')[bool(len(times))]
+        control.spin_until(lambda: control.controller_said(said, mark) is not None
+                           or control.controller_rejections(mark), demo.CONFIRM_TIMEOUT, self.live.alive,
+                           f'the controller to log "{said}"')
+        if control.controller_rejections(mark):
+            raise RuntimeError(f'controller rejected the trajectory: {control.controller_rejections(mark)}')
+
+    def set_bridge(self, **params):
+        """Set parameters of the running bridge (names with '__' for '.') through its parameter service."""
+        from rclpy.parameter import Parameter
+        from rclpy.parameter_client import AsyncParameterClient
+        if self._bridge_client is None:
+            self._bridge_client = AsyncParameterClient(self.control.node, '/sim_bridge')
+        client = self._bridge_client
+        self.control.spin_until(client.services_are_ready, demo.STARTUP_TIMEOUT, self.live.alive,
+                                'the bridge parameter services')
+        future = client.set_parameters([Parameter(k.replace('__', '.'), value=v) for k, v in params.items()])
+        self.control.spin_until(future.done, demo.CONFIRM_TIMEOUT, self.live.alive, 'the bridge to set parameters')
+        bad = [r.reason for r in future.result().results if not r.successful]
+        if bad:
+            raise RuntimeError(f'the bridge refused {params}: {bad}')
+
+    def states(self):
+        """(t (k,) s, q (k, n), qd (k, n)) of every joint_states tick so far, in the bridge's joint order
+        (a state re-published while paused counted once)."""
+        return self._by_stamp('/joint_states', lambda m: (m.position, m.velocity))
+
+    def references(self):
+        """(t (k,) s, q_d (k, n), qd_d (k, n)) the controller published on ~/reference, one per tick."""
+        return self._by_stamp('/controller/reference', lambda m: (m.position, m.velocity))
+
+    def _by_stamp(self, topic, fields):
+        from robot_control.ros import conversions
+        rows = {}
+        for msg, _, _ in self.live.collector.messages(topic):
+            rows.setdefault(conversions.stamp_to_ns(msg.header.stamp), fields(msg))
+        stamps = sorted(rows)
+        return (np.array(stamps) / demo.NS, np.array([rows[s][0] for s in stamps]),
+                np.array([rows[s][1] for s in stamps]))
+
+    def diagnostics(self, suffix):
+        """[(level, message, {key: value})] of every /diagnostics status named ...`suffix`, in arrival order."""
+        from robot_control.ros import conversions
+        return [conversions.diagnostic_values(s) for msg, _, _ in self.live.collector.messages('/diagnostics')
+                for s in msg.status if s.name.endswith(suffix)]
+
+    def log(self, level=None):
+        """The controller's /rosout lines (text), optionally of one level (rcl_interfaces Log: 20 INFO, 40 ERROR)."""
+        return [text for name, lvl, text in self.control.log if name == 'controller' and level in (None, lvl)]

@@ -1,4 +1,4 @@
-"""Helpers of test_robustness.py (issue 7): node processes, a monitoring node, fault generators.
+"""Helpers of test_robustness.py: node processes, a monitoring node, fault generators.
 
 - NodeProcess: `python -m <module> --ros-args ...` as a child process on a private ROS domain,
   loopback discovery, output to a log file; stop() = SIGINT, then SIGKILL after a deadline;
@@ -150,20 +150,31 @@ def processes():
                 p.stop()
 
 
+def namespace_args(namespace):
+    """-r rules putting a node in `namespace` ('/r1'; None or '' = none) with /clock moved to <namespace>/clock,
+    so several robots with their own simulated time share one domain."""
+    if not namespace:
+        return []
+    return ['-r', f'__ns:={namespace}', '-r', f'/clock:={namespace}/clock']
+
+
 def bridge(domain_id, log_dir, scenario='polar_two_link', namespace=None, **params):
-    """The bridge process with config/<scenario>.yaml (in a namespace: no file, the scenario parameter's defaults)."""
-    args = ros_args(None if namespace else config(scenario), **params)
-    if namespace:   # /clock is absolute: each namespace gets its own
-        args += ['-p', f'scenario:={scenario}', '-r', f'__ns:={namespace}', '-r', f'/clock:={namespace}/clock']
-    return NodeProcess('sim_bridge.bridge_node', args, domain_id, log_dir, name='sim_bridge')
+    """The bridge process with config/<scenario>.yaml (its /**/sim_bridge section applies in any namespace),
+    then `params`; in `namespace` (namespace_args)."""
+    args = ros_args(config(scenario), **params) + namespace_args(namespace)
+    return NodeProcess('sim_bridge.bridge_node', args, domain_id, log_dir, name=_log_name('sim_bridge', namespace))
 
 
 def controller(domain_id, log_dir, scenario='polar_two_link', namespace=None, **params):
-    args = ros_args(None if namespace else config(scenario), **params)
-    if namespace:
-        args += ['-p', f'scenario:={scenario}', '-p', 'use_sim_time:=true', '-r', f'__ns:={namespace}',
-                 '-r', f'/clock:={namespace}/clock']
-    return NodeProcess('robot_control.ros.controller_node', args, domain_id, log_dir, name='controller')
+    """The controller process with config/<scenario>.yaml (its /**/controller section), then `params`; in
+    `namespace` (namespace_args)."""
+    args = ros_args(config(scenario), **params) + namespace_args(namespace)
+    return NodeProcess('robot_control.ros.controller_node', args, domain_id, log_dir,
+                       name=_log_name('controller', namespace))
+
+
+def _log_name(node, namespace):
+    return node + (namespace or '').replace('/', '_')
 
 
 # -- waiting -------------------------------------------------------------------------------------------------------

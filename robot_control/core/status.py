@@ -110,7 +110,8 @@ def _law(name, core, counters):
                                                                                 ('force_gains', cfg.force_gains))
              if servo is not None for g in ('kp', 'kv', 'ki')]
     return (f'{name}: control law', level, message,
-            gains + [('law', cfg.law), ('integral', cfg.integral), ('fallbacks', core.fallbacks),
+            gains + [('law', cfg.law), ('force_axes', ','.join(cfg.force_axes)), ('integral', cfg.integral),
+             ('fallbacks', core.fallbacks),
              ('contact_trips', guard.trips if guard is not None else 0),
              ('tick_mean_us', round(counters.tick_mean_us, 1)), ('tick_max_us', round(counters.tick_max_ns / 1e3, 1)),
              ('ticks', counters.tick_count)])

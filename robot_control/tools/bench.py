@@ -18,7 +18,7 @@ B4 the PyBullet World of the iiwa without ROS: physics steps per second under to
 
 `make bench` runs it (`make bench QUICK=1` with --quick). --quick runs seconds instead of minutes
 and still writes every key. ROS processes run with
-ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST on a domain id private to this run (from the pid).
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST on a domain id private to this run (the first free of 101, 100, ..., 1).
 """
 import argparse
 import dataclasses
@@ -32,6 +32,8 @@ import sys
 import time
 
 import numpy as np
+
+from robot_control.tools import demo_procs
 
 #: the targets: key -> (comparison, bound); the table marks each figure met or MISSED
 TARGETS = {
@@ -174,6 +176,33 @@ def bench_laws(plan):
     return out
 
 
+def bench_transport(plan):
+    """B1 transport: a 7-joint sensor_msgs/JointState (positions, velocities, efforts; a new stamp and new
+    values each) from its CDR bytes, by the package's decoder (robot_control.ros.cdr) and by rclpy's
+    deserialize_message, interleaved round by round; the first round is a warm-up."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import JointState
+
+    from robot_control.ros import cdr, conversions
+
+    rng = np.random.default_rng(SEED)
+    names = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
+    msgs = [serialize_message(conversions.joint_state(names, stamp_ns=1_000_000 * (k + 1), position=rng.normal(size=7),
+                                                      velocity=rng.normal(size=7), effort=rng.normal(size=7)))
+            for k in range(plan.law_calls)]
+    decoder = cdr.JointStateDecoder()
+    cases = {'cdr': (decoder.decode, [(m,) for m in msgs]),
+             'rclpy': (deserialize_message, [(m, JointState) for m in msgs])}
+    times = {name: [] for name in cases}
+    for r in range(plan.law_rounds + 1):
+        for name, (fn, inputs) in cases.items():
+            time_calls(fn, inputs, times[name] if r else [])
+    out = {}
+    for name, ns in times.items():
+        out[f'js7_decode_us_{name}_median'], out[f'js7_decode_us_{name}_p99'] = median_p99_us(ns)
+    return out
+
+
 # -- B4: the world without ROS -------------------------------------------------------------------
 def bench_world(plan):
     """B4: iiwa World physics steps per second (set_torque, step, state per step)."""
@@ -273,7 +302,7 @@ def parse_args(argv):
     parser.add_argument('--out', default=os.path.join('out', 'bench'), help='output directory')
     parser.add_argument('--only', default=','.join(PARTS), help='comma-separated subset of b1,b2,b3,b4')
     parser.add_argument('--domain-id', type=int, default=None,
-                        help='ROS_DOMAIN_ID for the DDS parts (default: private to this run, from the pid)')
+                        help='ROS_DOMAIN_ID for the DDS parts (default: the first free of 101, 100, ..., 1)')
     args = parser.parse_args(argv)
     args.only = [p.strip() for p in args.only.split(',') if p.strip()]
     unknown = sorted(set(args.only) - set(PARTS))
@@ -288,6 +317,7 @@ def run(parts, plan, domain_id, log, outdir):
     if 'b1' in parts:
         log('B1 control-law cost ...')
         results.update(bench_laws(plan))
+        results.update(bench_transport(plan))
     if 'b4' in parts:
         log('B4 world without ROS ...')
         results.update(bench_world(plan))
@@ -310,17 +340,21 @@ def _exit_on_sigterm(signum, frame):
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     plan = QUICK if args.quick else FULL
-    domain_id = args.domain_id if args.domain_id is not None else 101 + os.getpid() % 100
 
     def log(msg):
         print(msg, file=sys.stderr, flush=True)
 
     signal.signal(signal.SIGTERM, _exit_on_sigterm)     # unwinds: child processes are stopped
+    claim = demo_procs.private_domain() if args.domain_id is None else None
     try:
+        domain_id = args.domain_id if claim is None else claim.acquire()
         results = run(args.only, plan, domain_id, log, args.out)
     except KeyboardInterrupt:
         log('interrupted: child processes stopped, nothing written')
         return 130
+    finally:
+        if claim is not None:
+            claim.release()
     check_finite(results)
     machine = machine_info()
     write_json(os.path.join(args.out, 'results.json'), results)

@@ -174,7 +174,7 @@ def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, p
 
     mode 'lockstep' | 'realtime'; duration s of simulation (default the experiment's); out_dir default
     out/demo/<name>; record: bag/; plot: tracking.png; domain_id: ROS_DOMAIN_ID of the run (default: a
-    free one in DEMO_DOMAIN_RANGE); write: print-like function for progress (None: quiet);
+    free one of procs.PRIVATE_DOMAIN_IDS); write: print-like function for progress (None: quiet);
     keep_data: keep the per-tick RunData in the result.
     """
     if isinstance(experiment, str):
@@ -187,9 +187,8 @@ def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, p
     out_dir = Path(out_dir if out_dir is not None else ROOT / 'out' / 'demo' / experiments.output_name(experiment.name))
     out_dir.mkdir(parents=True, exist_ok=True)
     claim = None
-    if domain_id is None:   # a private id: the first free one from the pid-derived offset
-        lo, hi = procs.DEMO_DOMAIN_RANGE
-        claim = procs.DomainClaim(range(lo, hi + 1), start=procs.pick_domain_id() - lo)
+    if domain_id is None:   # a private id, claimed for the run
+        claim = procs.private_domain()
         domain_id = claim.acquire()
     try:
         return _run(experiment, mode, duration, out_dir, record, plot, int(domain_id), write, keep_data)
@@ -504,7 +503,7 @@ def _parser():
     p.add_argument('--out', default=None, help='output directory (default out/demo/<name>; with --all, '
                                                'the parent of the per-experiment directories)')
     p.add_argument('--domain-id', type=int, default=None,
-                   help=f'ROS_DOMAIN_ID of the run (default: private, from the pid, in {procs.DEMO_DOMAIN_RANGE})')
+                   help='ROS_DOMAIN_ID of the run (default: the first free of 101, 100, ..., 1)')
     p.add_argument('--quiet', action='store_true', help='no progress lines')
     return p
 

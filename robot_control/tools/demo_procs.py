@@ -20,8 +20,9 @@ import threading
 import time
 from pathlib import Path
 
-#: domain ids the demo picks from when none is given (kept away from the test suite's 1..92)
-DEMO_DOMAIN_RANGE = (101, 199)
+#: domain ids a demo or benchmark run claims when none is given: ROS's safe range on Linux (0..101),
+#: tried from the top so that they stay clear of the test suite's 1..92 (and of the default domain 0)
+PRIVATE_DOMAIN_IDS = tuple(range(101, 0, -1))
 #: s to wait after each signal of the SIGINT -> SIGTERM -> SIGKILL escalation
 STOP_WAITS = (3.0, 2.0, 2.0)
 
@@ -44,10 +45,10 @@ def ros_env(domain_id, base=None):
     return env
 
 
-def pick_domain_id(pid=None):
-    """A domain id private to this run: derived from the pid, within DEMO_DOMAIN_RANGE."""
-    lo, hi = DEMO_DOMAIN_RANGE
-    return lo + (os.getpid() if pid is None else pid) % (hi - lo + 1)
+def private_domain(timeout=120.0, directory=None):
+    """A DomainClaim on the first free id of PRIVATE_DOMAIN_IDS (101, 100, ...), exclusive among the
+    demo, benchmark and check runs of this machine (lock files in `directory`, default the temp dir)."""
+    return DomainClaim(PRIVATE_DOMAIN_IDS, timeout=timeout, directory=directory)
 
 
 class DomainClaim:

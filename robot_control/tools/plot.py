@@ -1,12 +1,20 @@
 """Tracking plots of a run (matplotlib, Agg canvas; no rclpy, no pyplot global state).
 
-`tracking_figure(data, path)` draws one column per joint (or task axis) and one row per quantity,
-all panels on a shared time axis:
+`tracking_figure(data, path)` draws one block of panels per quantity, top to bottom, each block one
+panel per joint (or task axis, effort channel, force axis) in rows of at most MAX_COLUMNS panels, so
+a 7-joint arm reads as two rows of 4 + 3 per quantity instead of one row seven panels wide:
 
-    row 1  position: desired q_d (dashed) and actual q          [rad or m, per joint]
-    row 2  error e = q_d - q                                     [rad or m]
-    row 3  effort tau applied, with +-effort limit if given      [N m for revolute, N for prismatic]
-    row 4  contact force f and its reference f_d (only if 'f')   [N]
+    block 1  position: desired q_d (dashed) and actual q          [rad or m, per joint]
+    block 2  error e = q_d - q                                     [rad or m]
+    block 3  effort tau applied, with +-effort limit if given      [N m for revolute, N for prismatic]
+    block 4  contact force f and its reference f_d (only if 'f')   [N]
+
+Every panel is titled with its coordinate's name; joint c sits in column c mod MAX_COLUMNS of each
+block. All panels share the time axis (labelled under the lowest panel of each column). Tick labels
+never use an offset ("1e-6+5.5e-1"): values print as themselves (tiny ones with a power-of-ten
+multiplier such as 1e-6 over the axis), and a panel whose values vary by less than RELATIVE_SPAN of
+their size is widened to that span (a held joint reads as a flat line at its value; the error block
+shows the small variation).
 
 The input is a plain dict of numpy arrays (N samples, n coordinates, m effort channels, k force axes):
 
@@ -37,13 +45,15 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ['tracking_figure', 'check_tracking_data', 'EFFORT_UNIT']
+__all__ = ['tracking_figure', 'check_tracking_data', 'EFFORT_UNIT', 'MAX_COLUMNS']
 
 EFFORT_UNIT = {'rad': 'N m', 'm': 'N'}
 POSITION_UNITS = ('rad', 'm')
 COL_WIDTH_IN = 3.6
 ROW_HEIGHT_IN = 2.3
 DPI = 110
+MAX_COLUMNS = 4
+RELATIVE_SPAN = 2e-3   # smallest y span of a panel, relative to its largest |value|
 
 
 def _names(key, value, n=None):
@@ -140,6 +150,65 @@ def _limit_lines(ax, limit, tau):
         ax.set_ylim(lo - pad, hi + pad)
 
 
+def _no_offset(ax, values):
+    """Plain tick labels without offset; widen a nearly constant panel to RELATIVE_SPAN of its size."""
+    ax.ticklabel_format(axis='both', useOffset=False)
+    finite = np.concatenate([np.asarray(v, dtype=float).ravel() for v in values])
+    finite = finite[np.isfinite(finite)]
+    if not finite.size:
+        return
+    lo, hi = ax.get_ylim()
+    size = float(np.max(np.abs(finite)))
+    if hi - lo < RELATIVE_SPAN * size:
+        mid = 0.5 * (lo + hi)
+        ax.set_ylim(mid - 0.5 * RELATIVE_SPAN * size, mid + 0.5 * RELATIVE_SPAN * size)
+
+
+def _draw_panel(ax, block, c, d):
+    """Panel c of `block` ('position', 'error', 'effort', 'force'); returns the arrays drawn."""
+    t = d['t']
+    if block == 'position':
+        ax.plot(t, d['q_d'][:, c], '--', color='tab:gray', linewidth=1.3, label='desired $q_d$')
+        ax.plot(t, d['q'][:, c], color='tab:blue', linewidth=1.1, label='actual $q$')
+        ax.set_title(d['joint_names'][c])
+        ax.set_ylabel(f'position [{d["units"][c]}]')
+        return [d['q_d'][:, c], d['q'][:, c]]
+    if block == 'error':
+        ax.axhline(0.0, color='black', linewidth=0.6)
+        ax.plot(t, d['e'][:, c], color='tab:orange', linewidth=1.1, label='$e = q_d - q$')
+        ax.set_title(d['joint_names'][c])
+        ax.set_ylabel(f'error [{d["units"][c]}]')
+        return [d['e'][:, c]]
+    if block == 'effort':
+        unit = d['tau_units'][c]
+        ax.plot(t, d['tau'][:, c], color='tab:green', linewidth=1.1, label=r'$\tau$ applied')
+        if d['effort_limit'] is not None and np.isfinite(d['effort_limit'][c]):
+            _limit_lines(ax, d['effort_limit'][c], d['tau'][:, c])
+        ax.set_title(d['tau_names'][c])
+        ax.set_ylabel(f'{"torque" if unit.replace(" ", "") == "Nm" else "joint force"} [{unit}]')
+        return [d['tau'][:, c]]
+    drawn = [d['f'][:, c]]
+    if d['f_d'] is not None and np.any(np.isfinite(d['f_d'][:, c])):
+        ax.plot(t, d['f_d'][:, c], '--', color='tab:gray', linewidth=1.3, label='reference $f_d$')
+        drawn.append(d['f_d'][:, c])
+    ax.plot(t, d['f'][:, c], color='tab:purple', linewidth=1.1, label='measured $f$')
+    ax.set_title(f'contact force {d["force_names"][c]}')
+    ax.set_ylabel('force [N]')
+    return drawn
+
+
+def panel_grid(counts):
+    """[(block, index, row, column)] of the panels of blocks {block: panel count} (in that order), each
+    block in rows of at most MAX_COLUMNS; and the grid's (rows, columns)."""
+    ncols = min(MAX_COLUMNS, max(counts.values()))
+    cells, row = [], 0
+    for block, count in counts.items():
+        for c in range(count):
+            cells.append((block, c, row + c // ncols, c % ncols))
+        row += -(-count // ncols)
+    return cells, (row, ncols)
+
+
 def tracking_figure(data, path=None):
     """Draw the tracking figure of `data` (see the module docstring) and save it as PNG.
 
@@ -147,50 +216,26 @@ def tracking_figure(data, path=None):
     (writes '<dir>/tracking.png'), or None (draw only). Returns the matplotlib Figure.
     """
     d = check_tracking_data(data)
-    t, n = d['t'], len(d['joint_names'])
-    m, k = len(d['tau_names']), len(d['force_names'])
-    rows = ['position', 'error', 'effort'] + (['force'] if k else [])
-    counts = {'position': n, 'error': n, 'effort': m, 'force': k}
-    ncols = max(counts[r] for r in rows)
-    fig = Figure(figsize=(COL_WIDTH_IN * ncols + 0.8, ROW_HEIGHT_IN * len(rows) + 0.9), dpi=DPI,
+    counts = {'position': len(d['joint_names']), 'error': len(d['joint_names']), 'effort': len(d['tau_names'])}
+    if d['force_names']:
+        counts['force'] = len(d['force_names'])
+    cells, (nrows, ncols) = panel_grid(counts)
+    fig = Figure(figsize=(COL_WIDTH_IN * ncols + 0.8, ROW_HEIGHT_IN * nrows + 0.9), dpi=DPI,
                  layout='constrained')
     FigureCanvasAgg(fig)
-    grid = fig.subplots(len(rows), ncols, sharex=True, squeeze=False)
+    grid = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
+    used = {(r, c) for _, _, r, c in cells}
     bottom = {}  # column -> lowest used axes (gets the time label)
-    for r, row in enumerate(rows):
+    for block, index, r, c in cells:
+        ax = grid[r, c]
+        bottom[c] = ax
+        ax.grid(True, alpha=0.35)
+        _no_offset(ax, _draw_panel(ax, block, index, d))
+        ax.legend(loc='best', fontsize='small')
+    for r in range(nrows):
         for c in range(ncols):
-            ax = grid[r, c]
-            if c >= counts[row]:
-                fig.delaxes(ax)
-                continue
-            bottom[c] = ax
-            ax.grid(True, alpha=0.35)
-            if row == 'position':
-                unit = d['units'][c]
-                ax.plot(t, d['q_d'][:, c], '--', color='tab:gray', linewidth=1.3, label='desired $q_d$')
-                ax.plot(t, d['q'][:, c], color='tab:blue', linewidth=1.1, label='actual $q$')
-                ax.set_title(d['joint_names'][c])
-                ax.set_ylabel(f'position [{unit}]')
-            elif row == 'error':
-                unit = d['units'][c]
-                ax.axhline(0.0, color='black', linewidth=0.6)
-                ax.plot(t, d['e'][:, c], color='tab:orange', linewidth=1.1, label='$e = q_d - q$')
-                ax.set_ylabel(f'error [{unit}]')
-            elif row == 'effort':
-                unit = d['tau_units'][c]
-                ax.plot(t, d['tau'][:, c], color='tab:green', linewidth=1.1, label=r'$\tau$ applied')
-                if d['effort_limit'] is not None and np.isfinite(d['effort_limit'][c]):
-                    _limit_lines(ax, d['effort_limit'][c], d['tau'][:, c])
-                if m != n:
-                    ax.set_title(d['tau_names'][c])
-                ax.set_ylabel(f'{"torque" if unit.replace(" ", "") == "Nm" else "joint force"} [{unit}]')
-            else:
-                if d['f_d'] is not None and np.any(np.isfinite(d['f_d'][:, c])):
-                    ax.plot(t, d['f_d'][:, c], '--', color='tab:gray', linewidth=1.3, label='reference $f_d$')
-                ax.plot(t, d['f'][:, c], color='tab:purple', linewidth=1.1, label='measured $f$')
-                ax.set_title(f'contact force {d["force_names"][c]}')
-                ax.set_ylabel('force [N]')
-            ax.legend(loc='best', fontsize='small')
+            if (r, c) not in used:
+                fig.delaxes(grid[r, c])
     for ax in bottom.values():
         ax.set_xlabel('time [s]')
         ax.xaxis.set_tick_params(labelbottom=True)
@@ -205,3 +250,30 @@ def tracking_figure(data, path=None):
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=DPI)
     return fig
+
+
+def main(args=None):
+    """`python -m robot_control.plot BAG [-o PNG] [--namespace NS]` / the `plot` console script: the
+    tracking figure of a rosbag2 directory (robot_control.tools.bag_tracking). Exit 0 and the PNG's
+    path on stdout; exit 2 and the reason on stderr for a path that is no bag or a bag without a
+    plottable joint_states."""
+    import argparse
+    import sys
+    from robot_control.tools.bag_tracking import BagError, bag_directory, tracking_data
+    p = argparse.ArgumentParser(prog='python -m robot_control.plot',
+                                description='Draw the tracking figure (position, error, effort, force) from a '
+                                            'rosbag2 directory written by ros2 bag record or robot_control.record.')
+    p.add_argument('bag', help='rosbag2 directory (holding metadata.yaml)')
+    p.add_argument('-o', '--output', default=None, help='PNG to write (default: <bag>_tracking.png beside the bag)')
+    p.add_argument('-n', '--namespace', default=None, help='the robot\'s namespace, for a bag of several')
+    opts = p.parse_args(args)
+    try:
+        bag = bag_directory(opts.bag).resolve()
+        data = tracking_data(bag, opts.namespace)
+    except BagError as exc:
+        print(f'plot: {exc}', file=sys.stderr)
+        return 2
+    out = Path(opts.output) if opts.output else bag.parent / f'{bag.name}_tracking.png'
+    tracking_figure(data, out)
+    print(out)
+    return 0

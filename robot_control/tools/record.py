@@ -5,7 +5,11 @@ version 9 and storage `mcap` -- what `ros2 bag record` writes by default on Jazz
 read by `ros2 bag info/play` on a real install, by `rosbags`, and by Foxglove. Every topic carries
 its type name (`sensor_msgs/msg/JointState`), its full message definition (`ros2msg` schema in the
 mcap file, so the bag is self-describing), its RIHS01 type hash (checked against the hash the
-publishers announce on the graph) and the QoS profiles its publishers offered (for `ros2 bag play`).
+publishers announce on the graph) and the QoS profiles its publishers offered (for `ros2 bag play`;
+a topic recorded by explicit type before any publisher appeared gets its connection, and those of
+the publishers then matched, with its first message). metadata.yaml is written as rosbag2 on Jazzy
+writes it: `ros_distro: jazzy`, rosbag2's key order, offered_qos_profiles as a list of profiles with
+policy names (finish_metadata).
 
 Timestamps: each message is stamped with its *receive time*, `node.get_clock().now()` in integer
 nanoseconds, taken in the subscription callback -- as `ros2 bag record` does. With
@@ -44,11 +48,14 @@ from pathlib import Path
 
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.rosbag2.metadata import dump_qos_v9
+from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from robot_control.tools.taps import WithMessageInfo, spin_for, spin_until_idle
 
 BAG_VERSION = 9  # rosbag2 metadata version written by Jazzy (0.26.x)
+ROS_DISTRO = 'jazzy'  # metadata.yaml's ros_distro, as rosbag2 writes it (its ROS_DISTRO)
 STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
 DEFAULT_STORAGE = 'mcap'  # Jazzy's default storage plugin
 
@@ -171,6 +178,32 @@ def _hidden(topic):
 
 # ---------------------------------------------------------------- the bag
 
+#: metadata.yaml's keys in the order rosbag2 (Jazzy) writes them
+METADATA_KEYS = ('version', 'storage_identifier', 'duration', 'starting_time', 'message_count',
+                 'topics_with_message_count', 'compression_format', 'compression_mode', 'relative_file_paths',
+                 'files', 'custom_data', 'ros_distro')
+TOPIC_KEYS = ('name', 'type', 'serialization_format', 'offered_qos_profiles', 'type_description_hash')
+
+
+def finish_metadata(bag_dir):
+    """Rewrite `bag_dir`/metadata.yaml as rosbag2 on Jazzy writes it: ros_distro 'jazzy' (rosbags
+    writes 'rosbags') and rosbag2's key order. Each topic's offered_qos_profiles (a list of profiles
+    with policy names, `reliability: best_effort`, durations as sec/nsec) stays as written: the
+    storage file's channels carry the same, and readers match the two. The copy of the metadata
+    inside the storage file keeps ros_distro 'rosbags'; rosbag2 reads metadata.yaml."""
+    import yaml
+    path = Path(bag_dir) / 'metadata.yaml'
+    info = yaml.safe_load(path.read_text(encoding='utf-8'))['rosbag2_bagfile_information']
+    info['ros_distro'] = ROS_DISTRO
+    for entry in info['topics_with_message_count']:
+        entry['topic_metadata'] = {k: entry['topic_metadata'][k] for k in TOPIC_KEYS}
+        entry['message_count'] = entry.pop('message_count')
+    ordered = {'rosbag2_bagfile_information': {k: info[k] for k in METADATA_KEYS}}
+    tmp = path.with_suffix('.yaml.tmp')
+    tmp.write_text(yaml.safe_dump(ordered, sort_keys=False, default_flow_style=False), encoding='utf-8')
+    tmp.replace(path)
+
+
 class BagWriter:
     """A rosbag2 directory written by a thread of its own: the executor never waits on disk.
 
@@ -180,13 +213,14 @@ class BagWriter:
     20 ms. `counts` {topic: messages written} and `types` {topic: msgtype} grow as it goes.
     """
 
-    def __init__(self, path, storage, typestore, log):
+    def __init__(self, path, storage, typestore, log, qos_of=None):
         self.path = Path(path)
         self.storage = storage
         self.typestore = typestore
         self.queue = collections.deque()  # (topic, t_ns, bytes) or (_ADD, topic, (msgtype, qos))
         self.types = {}
         self.counts = {}
+        self.qos_of = qos_of if qos_of is not None else (lambda topic: [])
         self.error = None        # what stopped the writing (disk full, ...), reported by the recorder
         self._log = log
         self._wake = threading.Event()
@@ -240,7 +274,13 @@ class BagWriter:
         if thread is not None:
             thread.join()
 
-    def _drain(self, writer, conns):
+    def _connect(self, writer, conns, topic, msgtype, offered):
+        conns[topic] = writer.add_connection(topic, msgtype, typestore=self.typestore, offered_qos_profiles=offered)
+        return conns[topic]
+
+    def _drain(self, writer, conns, waiting):
+        """Write what is queued. A connection queued without offered QoS waits in `waiting` for its
+        first message, when its publishers are known: qos_of(topic) gives their profiles then."""
         queue = self.queue
         counts = self.counts
         write = writer.write
@@ -248,12 +288,24 @@ class BagWriter:
             item = queue.popleft()
             if item[0] is _ADD:
                 _, topic, (msgtype, offered) = item
-                conns[topic] = writer.add_connection(topic, msgtype, typestore=self.typestore,
-                                                     offered_qos_profiles=offered)
+                if offered:
+                    self._connect(writer, conns, topic, msgtype, offered)
+                else:
+                    waiting[topic] = msgtype
             else:
                 topic, t_ns, data = item
-                write(conns[topic], t_ns, data)
+                conn = conns.get(topic)
+                if conn is None:
+                    conn = self._connect(writer, conns, topic, waiting.pop(topic), self._qos_of(topic))
+                write(conn, t_ns, data)
                 counts[topic] += 1
+
+    def _qos_of(self, topic):
+        try:
+            return list(self.qos_of(topic))
+        except Exception as exc:  # node or context gone: the topic is listed without offered QoS
+            self._log.debug(f'recorder: offered QoS of {topic}: {exc!r}')
+            return []
 
     def _write_loop(self, writer):
         try:
@@ -263,13 +315,16 @@ class BagWriter:
             self._opened.set()
             return
         self._opened.set()
-        conns = {}
+        conns, waiting = {}, {}
         try:
             while not self._closing:
                 self._wake.wait(0.02)
-                self._drain(writer, conns)
-            self._drain(writer, conns)
+                self._drain(writer, conns, waiting)
+            self._drain(writer, conns, waiting)
+            for topic, msgtype in waiting.items():  # no message came: listed with what is known
+                self._connect(writer, conns, topic, msgtype, self._qos_of(topic))
             writer.close()
+            finish_metadata(self.path)
         except BaseException as exc:  # disk full, ...: stop writing, report at stop()
             self.error = exc
             self._log.error(f'recorder: writing {self.path} failed: {exc!r}')
@@ -330,7 +385,7 @@ class Recorder:
         if not self._requested and not self.all_topics:
             raise ValueError('topics: give at least one topic or all_topics=True')
         self._log = node.get_logger()
-        self._bag = BagWriter(self.path, storage, self.typestore, self._log)
+        self._bag = BagWriter(self.path, storage, self.typestore, self._log, qos_of=self._publisher_qos)
         self._lock = threading.RLock()  # guards the subscription tables (executor thread vs. stop())
         self._timer = None
         self._running = False
@@ -471,6 +526,11 @@ class Recorder:
 
     # -- internals
 
+    def _publisher_qos(self, topic):
+        """The QoS profiles (rosbags Qos) of the publishers of `topic` with its recorded type, now."""
+        return [_offered_qos(i.qos_profile) for i in self.node.get_publishers_info_by_topic(topic)
+                if normalize_type(i.topic_type) == self.types[topic]]
+
     def _add_topic(self, topic, msgtype, offered=()):
         """Give `topic` a connection in the bag (once), ahead of its messages."""
         _message_class(msgtype)  # fail here, before the bag gets a connection it cannot fill
@@ -609,8 +669,26 @@ def read_bag(bag_dir, topics=None, typestore=None):
         out = {t: [] for t in wanted}
         conns = [by_topic[t] for t in wanted]
         for conn, t_ns, raw in reader.messages(connections=conns):
-            out[conn.topic].append((t_ns, store.deserialize_cdr(raw, conn.msgtype)))
+            out[conn.topic].append((t_ns, deserialize(store, raw, conn.msgtype)))
     return out
+
+
+def deserialize(store, raw, msgtype):
+    """CDR bytes -> a rosbags message of `msgtype`, ignoring bytes past the message's end.
+
+    rmw_fastrtps' rmw_serialize (hence rclpy.serialization.serialize_message, and bags a Python
+    rosbag2_py writer filled) sizes the buffer by its estimate, which counts alignment padding for
+    empty sequences: such a message carries up to 8 bytes more than it holds, which rosbags' strict
+    size check refuses and rosbag2 reads.
+    """
+    try:
+        return store.deserialize_cdr(raw, msgtype)
+    except SerdeError as exc:
+        if 'size mismatch' not in str(exc):
+            raise
+    msgdef = store.get_msgdef(msgtype)
+    decode = msgdef.deserialize_cdr_le if raw[1] else msgdef.deserialize_cdr_be
+    return decode(memoryview(raw)[4:], 0, msgdef.cls, store)[0]
 
 
 # ---------------------------------------------------------------- command line

@@ -1,4 +1,4 @@
-"""The lecture's experiments end to end (issue 5): sim_bridge_node and controller_node as separate
+"""The lecture's experiments end to end: sim_bridge_node and controller_node as separate
 processes over DDS (loopback, a private domain per run), lockstep, references and metrics by
 robot_control.tools.demo. Each run is shared by the tests that read it (module-scoped `runs`); all runs
 are submitted when the module starts and execute two at a time.

@@ -1,4 +1,4 @@
-"""Robustness and safety (issue 7): nothing unsafe is ever commanded, whatever fails or arrives.
+"""Robustness and safety: nothing unsafe is ever commanded, whatever fails or arrives.
 
 End-to-end items run the bridge and the controller as separate processes (`python -m ...`)
 over Fast DDS on loopback, each test on its own ROS_DOMAIN_ID (81..92), with a monitoring node
@@ -42,7 +42,7 @@ LOG_DIR = os.path.join(rh.OUT_DIR, 'logs')
 POLAR = ('theta1', 'r')
 XY = ('x', 'y')
 LIMIT = np.array([200.0, 200.0])        # effort limits of config/*.yaml and of the URDFs, N m or N
-FUZZ_EXAMPLES = 2000                     # per subscribed topic (issue 7: at least 2,000)
+FUZZ_EXAMPLES = 2000                     # per subscribed topic (at least 2,000)
 FUZZ = settings(max_examples=FUZZ_EXAMPLES, deadline=None, database=None, derandomize=True,
                 phases=(Phase.explicit, Phase.generate, Phase.shrink),
                 suppress_health_check=(HealthCheck.too_slow, HealthCheck.filter_too_much,
@@ -68,7 +68,7 @@ def figures(request):
     """Writes out/robustness/summary.json and prints the README table after the module's tests."""
     yield TALLY
     path = TALLY.write()
-    text = f'\nrobustness figures (issue 7), {path}:\n{TALLY.table()}\n'
+    text = f'\nrobustness figures, {path}:\n{TALLY.table()}\n'
     reporter = request.config.pluginmanager.getplugin('terminalreporter')
     if reporter is not None:
         reporter.write_line(text)

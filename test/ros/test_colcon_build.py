@@ -8,6 +8,7 @@ run by .venv's python): no ament_package or sourced /opt/ros is needed. Everythi
 import configparser
 import glob
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -19,6 +20,7 @@ VENV_BIN = os.path.dirname(os.path.abspath(sys.executable))
 PKG = 'robot_control'
 NODES = {'controller_node': 'robot_control.ros.controller_node:main',
          'sim_bridge_node': 'sim_bridge.bridge_node:main'}
+TOOLS = {'record': 'robot_control.tools.record:main', 'plot': 'robot_control.tools.plot:main'}
 ARTIFACTS = ('build', 'install', 'log')
 
 
@@ -87,18 +89,33 @@ def test_build_writes_nothing_into_the_repo(installed):
 
 def test_nodes_are_installed_where_ros2_run_looks(installed):
     prefix, _ = installed
-    for node, target in NODES.items():
+    scripts = {**NODES, **TOOLS}  # ros2 run robot_control record / plot, too
+    for node, target in scripts.items():
         path = prefix / 'lib' / PKG / node
         assert path.is_file() and os.access(path, os.X_OK), path
         with open(path, encoding='utf-8') as f:
             assert f.readline().startswith('#!'), f'{path} has no shebang'
-    assert {k: v for k, v in entry_points(prefix).items() if k in NODES} == NODES
+    assert {k: v for k, v in entry_points(prefix).items() if k in scripts} == scripts
 
 
 def test_package_is_registered_in_the_ament_index(installed):
     prefix, _ = installed
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / PKG).is_file()
     assert text(prefix / 'share' / PKG / 'package.xml') == text(os.path.join(ROOT, 'package.xml'))
+
+
+def test_license_and_changelog_are_installed_and_match_package_xml(installed):
+    """A released package carries the license package.xml declares (Apache-2.0) and its changelog."""
+    prefix, _ = installed
+    share = prefix / 'share' / PKG
+    license_text = text(os.path.join(ROOT, 'LICENSE'))
+    assert '<license>Apache-2.0</license>' in text(os.path.join(ROOT, 'package.xml'))
+    assert 'Apache License' in license_text and 'Version 2.0, January 2004' in license_text
+    assert 'END OF TERMS AND CONDITIONS' in license_text
+    assert text(share / 'LICENSE') == license_text
+    changelog = text(share / 'CHANGELOG.rst')
+    version = re.search(r'<version>([^<]+)</version>', text(os.path.join(ROOT, 'package.xml'))).group(1)
+    assert changelog.startswith('^^^') and f'\n{version} (' in changelog   # catkin_generate_changelog's form
 
 
 def test_config_and_urdf_files_are_installed(installed):

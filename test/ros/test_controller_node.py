@@ -1,4 +1,4 @@
-"""controller_node in an in-process executor, with a test node playing the robot (issue 4, tests 1-4).
+"""controller_node in an in-process executor, with a test node playing the robot.
 
 Every test: a fresh rclpy context, the controller and a 'robot' node in one SingleThreadedExecutor,
 bounded spinning with deadlines (a state is re-published until its command arrives: the

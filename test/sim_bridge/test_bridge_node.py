@@ -1,4 +1,4 @@
-"""The bridge node (issue 3, items 4 and 5, bad input): in-process executor with a probe node,
+"""The bridge node (bad input included): in-process executor with a probe node,
 plus start-up through `python -m sim_bridge.bridge_node` in a subprocess."""
 import math
 import os

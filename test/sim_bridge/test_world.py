@@ -1,6 +1,6 @@
 """The PyBullet world (sim_bridge.world): the simulated robots obey the controller's models.
 
-Figures asserted here (issue 3): g(q) holds every robot (drift < 1e-4 over 2 s); free motion
+Figures asserted here: g(q) holds every robot (drift < 1e-4 over 2 s); free motion
 matches the model's RK4 solution (< 1e-3 over 0.5 s) and, at the production 1 ms step, the
 model integrated with PyBullet's own semi-implicit Euler (< 1e-9); wall/table penetration is
 F / k_e within 2 %; reset is bit-identical; efforts are clipped; brakes hold (< 1e-3 over 1 s);

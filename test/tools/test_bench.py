@@ -24,6 +24,7 @@ KEYS = (
     'lockstep_vs_pingpong_ratio',
     'realtime_1khz_deadline_hit_ratio', 'realtime_latency_p50_ms', 'realtime_latency_p99_ms', 'realtime_rtf',
     'sim_steps_per_s_iiwa',
+    'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
 )
 QUICK_TIMEOUT_S = 300
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from e2e_helpers import E2E_DOMAINS
-from robot_control.tools import demo, demo_experiments, demo_metrics, demo_procs, readme_results
+from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, demo_procs, readme_results
 from robot_control.tools.demo_procs import DomainClaim
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -124,7 +124,13 @@ def test_demo_command_writes_summary_plot_and_bag_and_stops_its_processes(tmp_pa
     assert summary['loop_rate_hz'] > 0 and 0 < summary['latency_p50_ms'] <= summary['latency_p99_ms']
     assert summary['domain_id'] == domain
     assert (out / 'tracking.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
-    assert (out / 'bag' / 'metadata.yaml').is_file()
+    meta = (out / 'bag' / 'metadata.yaml').read_text()
+    assert 'ros_distro: jazzy' in meta and 'storage_identifier: mcap' in meta
+    # the recorder's bag plots as the run did: the joint, its reference and error, the applied torque
+    plot = bag_tracking.tracking_data(out / 'bag')
+    assert plot['scenario'] == 'single_link' and plot['joint_names'] == ['theta'] and plot['units'] == ['rad']
+    assert plot['t'].size >= summary['samples'] and np.isfinite(plot['q_d']).sum() >= summary['samples']
+    assert np.nanmax(np.abs(plot['e'][:, 0])) == pytest.approx(summary['max_error']['theta'], rel=1e-9)
     assert (out / 'logs' / 'sim_bridge.log').is_file() and (out / 'logs' / 'controller.log').is_file()
 
 
@@ -227,8 +233,14 @@ def test_ros_env_keeps_dds_on_this_machine():
     assert 'ROS_STATIC_PEERS' not in env and env['PATH'] == '/bin'
     with pytest.raises(ValueError, match='^domain_id'):
         demo_procs.ros_env(300)
-    lo, hi = demo_procs.DEMO_DOMAIN_RANGE
-    assert all(lo <= demo_procs.pick_domain_id(pid) <= hi for pid in (1, 12345, 99999))
+
+
+def test_private_domains_are_claimed_from_the_top_of_ros_safe_range(tmp_path):
+    """Demo and bench runs take 101, 100, ... (ROS's Linux-safe 0..101, clear of the tests' 1..92)."""
+    ids = demo_procs.PRIVATE_DOMAIN_IDS
+    assert max(ids) == 101 and min(ids) >= 1 and list(ids) == sorted(ids, reverse=True)
+    with demo_procs.private_domain(directory=tmp_path) as a, demo_procs.private_domain(directory=tmp_path) as b:
+        assert (a.domain_id, b.domain_id) == (101, 100)
 
 
 def test_domain_claims_are_exclusive(tmp_path):

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
+from figure_helpers import axes_by_row, check_no_offset
 from robot_control.tools.plot import DPI, tracking_figure
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -30,15 +31,6 @@ def polar_data(force=True, N=601):
         f = 10.0 * (1.0 - np.exp(-8.0 * t))
         data.update(f=f[:, None], f_d=np.full((N, 1), 10.0), force_names=['x'])
     return data
-
-
-def axes_by_row(fig):
-    """Visible axes grouped by row (top to bottom), each row left to right."""
-    rows = {}
-    for ax in fig.axes:
-        spec = ax.get_subplotspec()
-        rows.setdefault(spec.rowspan.start, []).append((spec.colspan.start, ax))
-    return [[ax for _, ax in sorted(rows[r], key=lambda x: x[0])] for r in sorted(rows)]
 
 
 def test_png_written_with_sane_size(tmp_path):
@@ -108,14 +100,51 @@ def test_task_axes_with_more_joints_than_axes():
         'tau_units': ['N m'] * 7, 'effort_limit': [320, 320, 176, 176, 110, 40, 40],
         'f': np.full((N, 3), 9.5), 'f_d': f_d, 'force_names': ['x', 'y', 'z']})
     rows = axes_by_row(fig)
-    assert [len(r) for r in rows] == [3, 3, 7, 3]
-    assert [a.get_title() for a in rows[2]] == [f'a{i}' for i in range(1, 8)]
+    assert [len(r) for r in rows] == [3, 3, 4, 3, 3]  # seven torques: a row of 4, a row of 3
+    assert [a.get_title() for a in rows[2] + rows[3]] == [f'a{i}' for i in range(1, 8)]
     # the reference is drawn only where there is one
-    assert [len(a.get_lines()) for a in rows[3]] == [1, 1, 2]
+    assert [len(a.get_lines()) for a in rows[4]] == [1, 1, 2]
     # torques far below the limits keep their own scale; the legend says the limit is off scale
     a1 = rows[2][0]
     assert a1.get_legend().get_texts()[1].get_text() == 'limit \u00b1320 (off scale)'
     assert max(abs(v) for v in a1.get_ylim()) < 1.0
+
+
+def iiwa_data(N=400):
+    """Seven joints held near their start (1e-6 rad wobble) with small torques: what made offset labels."""
+    t = np.linspace(0.0, 2.0, N)
+    q0 = np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.55])
+    wobble = 1e-6 * np.sin(2 * np.pi * t)[:, None] * np.ones(7)
+    names = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
+    return {'scenario': 'iiwa', 't': t, 'joint_names': names, 'units': ['rad'] * 7,
+            'q': q0 + wobble, 'q_d': np.tile(q0, (N, 1)), 'tau': 30.0 + 1e-4 * wobble * 1e6,
+            'effort_limit': [320, 320, 176, 176, 110, 40, 40]}
+
+
+def test_seven_joints_in_rows_of_four_without_offset_labels(tmp_path):
+    fig = tracking_figure(iiwa_data(), tmp_path / 'tracking.png')
+    check_no_offset(fig)
+    rows = axes_by_row(fig)
+    assert [len(r) for r in rows] == [4, 3, 4, 3, 4, 3]  # position, error, effort: 4 + 3 each
+    names = iiwa_data()['joint_names']
+    for block, label in enumerate(['position [rad]', 'error [rad]', 'torque [N m]']):
+        panels = rows[2 * block] + rows[2 * block + 1]
+        assert [a.get_title() for a in panels] == names  # joint c in column c mod 4 of each block
+        assert [a.get_subplotspec().colspan.start for a in panels] == [0, 1, 2, 3, 0, 1, 2]
+        assert {a.get_ylabel() for a in panels} == {label}
+    w, h = fig.get_size_inches()
+    assert w < 16 and h < 16  # four columns, not seven
+    assert all(tick.get_text() for ax in fig.axes for tick in ax.get_yticklabels())
+    # joint 7 held at 0.55 rad: a flat line at its value, ticks printed as themselves
+    q7 = rows[1][2]
+    assert q7.get_title() == 'lbr_iiwa_joint_7'
+    lo, hi = q7.get_ylim()
+    assert lo < 0.55 < hi and hi - lo >= 2e-3 * 0.55 * 0.999
+    labels = [float(t.get_text().replace('\u2212', '-')) for t in q7.get_yticklabels() if t.get_text()]
+    assert labels and all(abs(v - 0.55) < 2e-3 for v in labels)
+    # all panels on one time axis; the time label under the lowest panel of each column
+    assert all(a.get_shared_x_axes().joined(a, fig.axes[0]) for a in fig.axes)
+    assert [a.get_xlabel() for a in rows[-1]] == ['time [s]'] * 3 and rows[-2][3].get_xlabel() == 'time [s]'
 
 
 @pytest.mark.parametrize('change, message', [

@@ -425,6 +425,27 @@ def test_best_effort_publisher_is_recorded_and_its_qos_stored(rig, tmp_path):
     assert [q['reliability'] for q in topic['topic_metadata']['offered_qos_profiles']] == ['best_effort']
 
 
+def test_a_topic_typed_before_its_publisher_appears_gets_the_qos_it_offers(rig, tmp_path):
+    """As ros2 bag record lists them: the offered QoS of the publishers the topic's messages came from."""
+    bag = tmp_path / 'bag'
+    latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    with Recorder(rig.rec_node, bag, ['ft_sensor/wrench:geometry_msgs/msg/WrenchStamped']) as recorder:
+        assert recorder.subscribed == [absolute('ft_sensor/wrench')]  # typed: subscribed with no publisher yet
+        rig.publisher('ft_sensor/wrench', WrenchStamped, latched)
+        rig.wait_matched()
+        for i in range(3):
+            rig.pubs['ft_sensor/wrench'].publish(wrench(i))
+        assert spin_until(rig.executor, lambda: received(recorder) == 3, 10.0)
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['ros_distro'] == 'jazzy' and meta['version'] == 9
+    (topic,) = meta['topics_with_message_count']
+    assert topic['message_count'] == 3
+    assert [(q['reliability'], q['durability']) for q in topic['topic_metadata']['offered_qos_profiles']] \
+        == [('reliable', 'transient_local')]
+    assert len(read_bag(bag)[absolute('ft_sensor/wrench')]) == 3
+
+
 def test_context_manager_closes_the_bag_on_error(rig, tmp_path):
     rig.publisher('joint_states', JointState)
     bag = tmp_path / 'bag'
