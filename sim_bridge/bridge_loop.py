@@ -18,7 +18,10 @@ Pacing (`cfg.mode`):
 - realtime (RealtimeLoop): a timer runs the control ticks that are due at real_time_factor
   (sim_bridge.loop.RealtimePacer; it re-anchors after a stall of more than 0.1 s rather than
   bursting). The latest valid command is held; no valid command for command_timeout of
-  simulation time (or none yet) engages the World's brakes, a fresh command releases them.
+  simulation time (or none yet) engages the World's brakes, a fresh command releases them. A
+  JointState command stamped (the state it answers) more than command_timeout before the current
+  simulation time arrived too late (held up by a network link that failed and came back): it is
+  ignored and counted (outdated_commands), never applied, and does not count as fresh.
 
 Paused, physics stands still and the unchanged state is re-published every 0.1 s of wall time,
 so a controller sees a live robot (its watchdog does not trip) and may be configured or given a
@@ -35,9 +38,10 @@ command_timeout of simulation time has passed without such evidence.
 Diagnostics (`diagnostics()`): three `Status` entries, `pacing` (mode, sim_time, paused,
 control_ticks, ...; lockstep: republished_states, late_commands, future_commands; realtime:
 achieved_real_time_factor, overruns, deadline hits and misses, latency percentiles), `commands`
-(accepted, rejected and rejected_<reason> counts, last_reject_reason, command_age, publishers per
-topic, publisher_conflicts) and `brakes` (engaged, reason, events). The node publishes them every
-diagnostics_period and the loop asks for them at once when the brakes change or on pause/resume.
+(accepted, rejected and rejected_<reason> counts, last_reject_reason, command_age, command_timeout,
+outdated_commands, publishers per topic, publisher_conflicts) and `brakes` (engaged, reason,
+events). The node publishes them every diagnostics_period and the loop asks for them at once when
+the brakes change or on pause/resume.
 """
 import abc
 import dataclasses
@@ -89,8 +93,8 @@ class BridgeLoop(abc.ABC):
     The node calls on_joint_command, on_array_command, on_timer (a steady timer: lockstep every
     lockstep_timeout / 4, realtime every control period of wall time), pause, reset,
     refresh_publisher_counts (every 0.1 s) and diagnostics. Public counters: `ticks` (control
-    ticks since the last reset), `brake_events`; `mapper` (CommandMapper: accepted and rejected
-    counts).
+    ticks since the last reset), `brake_events`, `outdated_commands` (realtime: ignored as too
+    old); `mapper` (CommandMapper: accepted and rejected counts).
     """
 
     def __init__(self, world, cfg, *, publish_state, count_publishers, publish_diagnostics, log,
@@ -117,6 +121,7 @@ class BridgeLoop(abc.ABC):
         self._wall_last_pub = 0
         self.ticks = 0
         self.brake_events = 0
+        self.outdated_commands = 0
 
     @property
     def brakes_engaged(self):
@@ -285,6 +290,7 @@ class BridgeLoop(abc.ABC):
         age = self._watchdog.age_ns(t)
         values['command_age'] = 'n/a' if age is None else age / NS
         values['command_timeout'] = self.cfg.command_timeout
+        values['outdated_commands'] = self.outdated_commands
         for topic, count in zip(COMMAND_TOPICS, guard.counts):
             values[f'publishers {topic}'] = count
         values['publisher_conflicts'] = guard.conflicts
@@ -406,8 +412,13 @@ class RealtimeLoop(BridgeLoop):
             self._pacer.set_real_time_factor(cfg.real_time_factor, self._clock(), self.ticks)
 
     def on_joint_command(self, stamp_ns, names, efforts):
-        """Held until the next valid one; the deadline meter times its answer to the latest state."""
-        ok = self._guard.check(JOINT_STATE, self.world.t_ns, stamp_ns)
+        """Held until the next valid one; the deadline meter times its answer to the latest state. One
+        answering a state more than command_timeout old is ignored (outdated)."""
+        t = self.world.t_ns
+        ok = self._guard.check(JOINT_STATE, t, stamp_ns)
+        if self._watchdog.outdated(t, stamp_ns):
+            self._ignore_outdated(stamp_ns, t)
+            return
         reason = self.mapper.map_named(names, efforts)
         if reason is None and ok:
             self._deadline.command(stamp_ns, self._clock())
@@ -417,6 +428,13 @@ class RealtimeLoop(BridgeLoop):
         """Held until the next valid one."""
         ok = self._guard.check(ARRAY, self.world.t_ns)
         self._command(self.mapper.map_array(values), ok)
+
+    def _ignore_outdated(self, stamp_ns, t_ns):
+        self.outdated_commands += 1
+        if self._reject_throttle.ready(self._clock()):
+            self._log('warning', f'ignored a command answering the state of t = {stamp_ns / NS:.3f} s at '
+                                 f't = {t_ns / NS:.3f} s (older than command_timeout = {self.cfg.command_timeout} s); '
+                                 f'{self.outdated_commands} so far')
 
     def _command(self, reason, ok):
         """Hold a valid command; the next due tick applies it."""

@@ -96,6 +96,12 @@ class CommandWatchdog:
         """Simulation time since the last accepted command; None when there was none."""
         return None if self.last_ns is None else t_ns - self.last_ns
 
+    def outdated(self, t_ns, stamp_ns):
+        """True for a command stamped `stamp_ns` (the state it answers) more than timeout_ns before the
+        simulation time `t_ns`: held up on the way (a network link that failed and came back) and no
+        longer fit to apply. Stamp 0 means unstamped and is never outdated."""
+        return 0 < stamp_ns < t_ns - self.timeout_ns
+
 
 stamp_ns = units.stamp_ns
 

@@ -125,12 +125,17 @@ class NodeProcess:
             return f.read()
 
     def rss_kb(self):
-        """Resident set size of the process, kB (VmRSS of /proc/<pid>/status)."""
-        with open(f'/proc/{self.pid}/status') as f:
-            for line in f:
-                if line.startswith('VmRSS:'):
-                    return int(line.split()[1])
-        raise RuntimeError(f'no VmRSS for pid {self.pid}')
+        """Resident set size of the process, kB."""
+        return rss_kb(self.pid)
+
+
+def rss_kb(pid):
+    """Resident set size of process `pid`, kB (VmRSS of /proc/<pid>/status)."""
+    with open(f'/proc/{pid}/status') as f:
+        for line in f:
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1])
+    raise RuntimeError(f'no VmRSS for pid {pid}')
 
 
 @contextlib.contextmanager

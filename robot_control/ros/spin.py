@@ -12,6 +12,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
+from robot_control.ros import dds
+
 EXECUTORS = ('events', 'single')
 #: longest wait of one spin_once, s: how late a shutdown by signal is noticed at worst
 SPIN_PERIOD = 0.1
@@ -53,11 +55,14 @@ def spin(executor, context=None, stop=None):
 
 def run_node(argv, make_node, executor='events', startup_errors=(), startup_message='bad parameter',
              startup_code=2):
-    """The body of every main(): init, build the node, spin until SIGINT/SIGTERM, clean up.
+    """The body of every main(): DDS settings, init, build the node, spin until SIGINT/SIGTERM, clean up.
 
-    make_node() builds the node; an exception of `startup_errors` (invalid parameters) is logged
-    as '<startup_message> <error>' at FATAL and returns `startup_code`. Returns 0 after a signal.
+    The Fast DDS settings of robot_control.ros.dds go into the environment first (where it does not
+    set them already): a network link that fails never blocks the node's publishing. make_node()
+    builds the node; an exception of `startup_errors` (invalid parameters) is logged as
+    '<startup_message> <error>' at FATAL and returns `startup_code`. Returns 0 after a signal.
     """
+    dds.apply_defaults()
     stop = init_with_stop_on_signals(argv)
     ex = make_executor(executor)
     node = None

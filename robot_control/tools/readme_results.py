@@ -1,7 +1,8 @@
 """Regenerate the README's results and benchmark tables from the files the tools wrote (never typed by hand).
 
     python -m robot_control.tools.readme_results [--readme README.md] [--results out/demo] [--bench out/bench]
-                                                 [--robustness out/robustness/summary.json] [--check]
+                                                 [--robustness out/robustness/summary.json]
+                                                 [--two-hosts out/two_hosts/figures.json] [--check]
 
 Reads every `<results>/*/summary.json` written by `python -m robot_control.demo` (run
 `python -m robot_control.demo --all` to produce one per experiment) and replaces what lies
@@ -11,7 +12,10 @@ changes; a README without both markers is an error. When `<bench>/results.md` ex
 by `make bench`) and the README has the lines `<!-- bench:begin -->` and `<!-- bench:end -->`,
 what lies between them is replaced by that table the same way; likewise the robustness table
 (`<!-- robustness:begin -->`) from `out/robustness/summary.json` of a whole run of
-test/e2e/test_robustness.py (a partial run is an error naming the missing figures).
+test/e2e/test_robustness.py (a partial run is an error naming the missing figures), and the two-host
+table (`<!-- two-hosts:begin -->`) from `out/two_hosts/figures.json` of a whole, passing run of
+test/e2e/test_two_hosts.py. The command line leaves a table whose figures are partial as it is and
+says so.
 `--check` changes nothing and exits 1 when the README is not up to date (for CI).
 """
 import argparse
@@ -26,6 +30,20 @@ BENCH_BEGIN = '<!-- bench:begin -->'
 BENCH_END = '<!-- bench:end -->'
 ROBUSTNESS_BEGIN = '<!-- robustness:begin -->'
 ROBUSTNESS_END = '<!-- robustness:end -->'
+TWO_HOSTS_BEGIN = '<!-- two-hosts:begin -->'
+TWO_HOSTS_END = '<!-- two-hosts:end -->'
+#: the figures of test/e2e/test_two_hosts.py the README table needs (the multicast counts are optional:
+#: they need tcpdump)
+TWO_HOSTS_FIGURES = (
+    'realtime_packets_per_s_a_to_b', 'realtime_packets_per_s_b_to_a', 'realtime_outage_longest_joint_states_gap_ms',
+    'realtime_outage_sim_s_per_wall_s', 'realtime_outage_longest_publish_ms_bridge',
+    'realtime_outage_longest_publish_ms_controller', 'lockstep_outage_longest_publish_ms_bridge',
+    'lockstep_outage_longest_publish_ms_controller', 'realtime_outage_brakes_command_age_ms',
+    'realtime_outage_controller_error_after_s', 'realtime_outage_commands_resume_after_s',
+    'lockstep_outage_resume_after_s', 'realtime_outage_resume_torque_minus_gravity_hold',
+    'realtime_outage_rss_growth_mb_bridge', 'realtime_outage_rss_growth_mb_controller',
+    'lockstep_outage_republished_states', 'lockstep_bit_identical_ticks_states',
+    'lockstep_bit_identical_ticks_commands', 'lockstep_static_peers_packets_a_to_b', 'tests_failed')
 #: the figures of test/e2e/test_robustness.py a README table needs (a partial run lacks some)
 ROBUSTNESS_FIGURES = ('1_controller_sigkill', '2_bridge_sigkill', '4_flood', '6_second_publisher_robot_joint_commands',
                       '6_second_publisher_effort_controller/commands', '7_unguarded', '7_lost_contact_processes',
@@ -182,6 +200,61 @@ def robustness_table(summary):
     return '\n'.join(lines + [''])
 
 
+def two_hosts_table(fig):
+    """The markdown between the two-host markers, from out/two_hosts/figures.json (a dict).
+
+    ValueError naming what is missing when the figures are not of a whole run of test_two_hosts.py, or
+    how many tests failed."""
+    missing = [k for k in TWO_HOSTS_FIGURES if k not in fig]
+    if missing:
+        raise ValueError(f'two-host figures of a partial run (missing {missing}); run the whole '
+                         'test/e2e/test_two_hosts.py')
+    if fig['tests_failed']:
+        raise ValueError(f'two-host figures of a run in which {fig["tests_failed"]} tests failed')
+    if 'lockstep_static_peers_multicast_packets' in fig:
+        multicast = (f'{fig["lockstep_static_peers_multicast_packets"]} (the SUBNET run: '
+                     f'{fig["realtime_subnet_multicast_packets"]})')
+    else:
+        multicast = 'not counted (no tcpdump)'
+    f = fig
+
+    def pair(a, b, spec, unit):
+        return f'{f[a]:{spec}} / {f[b]:{spec}} {unit}'.strip()
+
+    rt, ls = 'realtime_outage_', 'lockstep_outage_'
+    rows = [
+        ('packets per second on the link, each way (realtime, SUBNET discovery)',
+         pair('realtime_packets_per_s_a_to_b', 'realtime_packets_per_s_b_to_a', ',', ''), '> 500'),
+        ('failure: longest gap in joint_states on the bridge\'s computer',
+         f'{f[rt + "longest_joint_states_gap_ms"]:.1f} ms', '< 50 ms'),
+        ('failure: simulated time per wall-clock second', f'{f[rt + "sim_s_per_wall_s"]:.3f}', '1 +- 5 %'),
+        ('failure: longest publish call, bridge / controller, realtime; lockstep',
+         pair(rt + 'longest_publish_ms_bridge', rt + 'longest_publish_ms_controller', '.2f', 'ms') + '; '
+         + pair(ls + 'longest_publish_ms_bridge', ls + 'longest_publish_ms_controller', '.2f', 'ms'), '< 20 ms'),
+        ('failure: brakes engaged, age of the last valid command (simulated time)',
+         f'{f[rt + "brakes_command_age_ms"]:.1f} ms', 'command_timeout 50 ms + 2 ticks'),
+        ('failure: controller\'s watchdog ERROR after the link went down',
+         f'{f[rt + "controller_error_after_s"]:.2f} s', 'state_timeout 0.5 s + 0.3 s'),
+        ('failure: commands resume after the link\'s return, realtime / lockstep',
+         pair(rt + 'commands_resume_after_s', ls + 'resume_after_s', '.2f', 's'), '< 1 s'),
+        ('failure: applied torque minus the gravity hold, first second after the return',
+         f'{f[rt + "resume_torque_minus_gravity_hold"]:.2f} N m', '< 1 N m'),
+        ('failure: RSS growth, bridge / controller', pair(rt + 'rss_growth_mb_bridge', rt + 'rss_growth_mb_controller',
+                                                          '.1f', 'MB'), '< 10 MB'),
+        ('failure, lockstep: states re-published', str(f[ls + 'republished_states']), '>= 5'),
+        ('lockstep across the link against both nodes on one computer',
+         f'bit-identical ({f["lockstep_bit_identical_ticks_states"]:,} states, '
+         f'{f["lockstep_bit_identical_ticks_commands"]:,} commands), no tick lost', 'bit-identical'),
+        ('static peers (no multicast route): packets host a to b / multicast packets on the link',
+         f'{f["lockstep_static_peers_packets_a_to_b"]:,} / {multicast}', '> 500 / 0'),
+    ]
+    lines = ['', '_Generated by `python -m robot_control.tools.readme_results` from `out/two_hosts/figures.json` '
+                 '(`pytest test/e2e/test_two_hosts.py`); do not edit by hand._', '',
+             '| two hosts, link down for 1.5 s mid-move (failure) | measured | required |', '|---|---|---|']
+    lines += [f'| {a} | {b} | {c} |' for a, b, c in rows]
+    return '\n'.join(lines + [''])
+
+
 def replace_between_markers(text, body, begin=BEGIN, end=END):
     """`text` with everything between `begin` and `end` replaced by `body`; ValueError without both markers."""
     start = text.find(begin)
@@ -193,19 +266,30 @@ def replace_between_markers(text, body, begin=BEGIN, end=END):
     return text[:start + len(begin)] + '\n' + body.strip('\n') + '\n' + text[stop:]
 
 
-def update(readme, results_dir, check=False, bench_dir=None, robustness=None):
-    """Rewrite `readme` (unless check); returns True when its content changed (or would change)."""
+def update(readme, results_dir, check=False, bench_dir=None, robustness=None, two_hosts=None, on_partial=None):
+    """Rewrite `readme` (unless check); returns True when its content changed (or would change).
+
+    `robustness`, `two_hosts`: the JSON files of those tables (None or a missing file: the table stays).
+    Figures the table refuses (a partial run) raise ValueError, or with `on_partial` given leave that
+    table as it is and call on_partial(the error's text)."""
     readme = Path(readme)
     text = readme.read_text()
     new = replace_between_markers(text, table(load_summaries(results_dir)))
     bench = None if bench_dir is None or BENCH_BEGIN not in text else bench_table(bench_dir)
     if bench is not None:
         new = replace_between_markers(new, bench, BENCH_BEGIN, BENCH_END)
-    if robustness is not None and ROBUSTNESS_BEGIN in text:
-        path = Path(robustness)
-        if path.is_file():
-            new = replace_between_markers(new, robustness_table(json.loads(path.read_text())),
-                                          ROBUSTNESS_BEGIN, ROBUSTNESS_END)
+    for path, make, begin, end in ((robustness, robustness_table, ROBUSTNESS_BEGIN, ROBUSTNESS_END),
+                                   (two_hosts, two_hosts_table, TWO_HOSTS_BEGIN, TWO_HOSTS_END)):
+        if path is None or begin not in text or not Path(path).is_file():
+            continue
+        try:
+            body = make(json.loads(Path(path).read_text()))
+        except ValueError as exc:
+            if on_partial is None:
+                raise
+            on_partial(str(exc))
+            continue
+        new = replace_between_markers(new, body, begin, end)
     changed = new != text
     if changed and not check:
         readme.write_text(new)
@@ -220,17 +304,16 @@ def main(argv=None):
     p.add_argument('--bench', default=str(root / 'out' / 'bench'), help='directory holding results.md of make bench')
     p.add_argument('--robustness', default=str(root / 'out' / 'robustness' / 'summary.json'),
                    help='summary.json of a whole run of test/e2e/test_robustness.py')
+    p.add_argument('--two-hosts', default=str(root / 'out' / 'two_hosts' / 'figures.json'),
+                   help='figures.json of a whole run of test/e2e/test_two_hosts.py')
     p.add_argument('--check', action='store_true', help='exit 1 if the README is not up to date; change nothing')
     opts = p.parse_args(argv)
+    def partial(message):
+        print(f'readme_results: {message}: that table is left as it is', file=sys.stderr)
+
     try:
-        try:
-            changed = update(opts.readme, opts.results, check=opts.check, bench_dir=opts.bench,
-                             robustness=opts.robustness)
-        except ValueError as exc:
-            if not str(exc).startswith('robustness'):
-                raise
-            print(f'readme_results: {exc}: the robustness table is left as it is', file=sys.stderr)
-            changed = update(opts.readme, opts.results, check=opts.check, bench_dir=opts.bench)
+        changed = update(opts.readme, opts.results, check=opts.check, bench_dir=opts.bench,
+                         robustness=opts.robustness, two_hosts=opts.two_hosts, on_partial=partial)
     except (OSError, ValueError) as exc:
         print(f'readme_results: {exc}', file=sys.stderr)
         return 2

@@ -129,6 +129,16 @@ def test_config_and_urdf_files_are_installed(installed):
     assert len(site) == 1 and names(os.path.join(site[0], '*.urdf')) == urdfs   # package_data
 
 
+def run_installed(prefix, code, cwd):
+    """(site-packages of the install, stdout) of `code` run against the installed package alone."""
+    site = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages'))[0]
+    env = dict(os.environ, PYTHONPATH=site, PYTHONDONTWRITEBYTECODE='1')
+    proc = subprocess.run([sys.executable, '-P', '-c', code], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    return site, proc.stdout
+
+
 def test_launch_file_is_installed_where_ros2_launch_looks(installed):
     """`ros2 launch robot_control scenario.launch.py` finds share/robot_control/launch/*.launch.py."""
     prefix, _ = installed
@@ -142,15 +152,21 @@ def test_launch_file_is_installed_where_ros2_launch_looks(installed):
 def test_installed_package_resolves_its_own_urdfs(installed, tmp_path):
     """The installed library (not the source tree) finds its shipped URDFs and builds a model."""
     prefix, _ = installed
-    site = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages'))[0]
-    code = ('import robot_control.models as m; '
-            "print(m.resolve_urdf('polar_two_link')); print(m.for_scenario('polar_two_link').n)")
-    env = dict(os.environ, PYTHONPATH=site, PYTHONDONTWRITEBYTECODE='1')
-    proc = subprocess.run([sys.executable, '-P', '-c', code], cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=60)
-    assert proc.returncode == 0, proc.stderr
-    path, n = proc.stdout.split()
-    assert path.startswith(site) and n == '2', proc.stdout
+    site, out = run_installed(prefix, 'import robot_control.models as m; '
+                              "print(m.resolve_urdf('polar_two_link')); print(m.for_scenario('polar_two_link').n)",
+                              tmp_path)
+    path, n = out.split()
+    assert path.startswith(site) and n == '2', out
+
+
+def test_the_fast_dds_profile_is_installed_where_the_nodes_find_it(installed, tmp_path):
+    """robot_control.ros.dds.PROFILE of the installed package (package_data) exists; share/ has a copy."""
+    prefix, _ = installed
+    assert (prefix / 'share' / PKG / 'dds' / 'fastdds_profile.xml').is_file()
+    site, out = run_installed(prefix, 'import os; from robot_control.ros import dds; '
+                              'print(dds.PROFILE, os.path.isfile(dds.PROFILE))', tmp_path)
+    path, exists = out.split()
+    assert path.startswith(site) and exists == 'True', out
 
 
 def test_every_config_yaml_is_installed(tmp_path):

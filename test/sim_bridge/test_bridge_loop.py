@@ -76,6 +76,15 @@ def test_watchdog_stale_in_simulation_time():
     assert w.stale(10 * MS)
 
 
+def test_watchdog_calls_a_command_answering_an_old_state_outdated():
+    w = CommandWatchdog(50 * MS)
+    assert not w.outdated(100 * MS, 50 * MS)            # exactly command_timeout old: still in time
+    assert w.outdated(100 * MS, 50 * MS - 1)
+    assert not w.outdated(100 * MS, 0)                  # unstamped
+    assert not w.outdated(100 * MS, 200 * MS)           # ahead (another time base): not this check's business
+    assert not w.outdated(10 * MS, 1)                   # younger than command_timeout since the start
+
+
 def test_lockstep_gate_matches_only_the_expected_stamp():
     g = LockstepGate()
     g.expect(stamp_ns(1, 500))
@@ -406,6 +415,24 @@ def test_realtime_brakes_on_a_stale_command_and_releases_on_a_fresh_one(bridge):
     assert statuses(loop)['brakes'].level == 'OK' and node.diagnostics == 4
 
 
+def test_realtime_ignores_a_command_answering_a_state_older_than_command_timeout(bridge):
+    """A command held up on the way (a network link that failed and came back) is counted and logged, never
+    applied, and does not release the brakes; exactly command_timeout old is still in time."""
+    loop, node = bridge(mode='realtime', command_timeout=0.05)
+    for _ in range(20):
+        node.now += 10 * MS
+        loop.on_timer()
+    assert loop.world.t_ns == 200 * MS and loop.brake_reason == 'no command yet'
+    push = (POLAR.g(Q0) + [0.0, 50.0]).tolist()
+    loop.on_joint_command(150 * MS - 1, JOINTS, push)
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 0 and loop.world.braked
+    assert statuses(loop)['commands'].values['outdated_commands'] == 1
+    assert node.logs[-1] == ('warning', 'ignored a command answering the state of t = 0.150 s at t = 0.200 s '
+                                        '(older than command_timeout = 0.05 s); 1 so far')
+    loop.on_joint_command(150 * MS, JOINTS, HOLD)
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 1 and not loop.world.braked
+
+
 def test_realtime_runs_the_ticks_due_on_the_wall_clock(bridge):
     loop, node = bridge(mode='realtime', real_time_factor=0.5)
     loop.on_joint_command(0, JOINTS, HOLD)
@@ -503,7 +530,7 @@ def test_diagnostics_keys_and_levels(bridge):
                                         'control_period', 'republished_states', 'late_commands', 'future_commands']
     assert list(s['commands'].values) == (
         ['accepted', 'rejected'] + [f'rejected_{r}' for r in REJECT_REASONS]
-        + ['last_reject_reason', 'command_age', 'command_timeout', 'publishers robot_joint_commands',
+        + ['last_reject_reason', 'command_age', 'command_timeout', 'outdated_commands', 'publishers robot_joint_commands',
            'publishers effort_controller/commands', 'publisher_conflicts'])
     assert s['commands'].values['command_age'] == 'n/a'
     loop.on_joint_command(0, ['theta1', 'x'], HOLD)

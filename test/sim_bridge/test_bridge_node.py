@@ -233,6 +233,18 @@ def test_realtime_brakes_on_stale_command_and_releases_on_fresh(harness):
     assert h.spin_until(lambda: h.probe.last_diag('brakes')[0] == 'OK')
 
 
+def test_realtime_ignores_a_command_answering_a_state_older_than_command_timeout(harness):
+    """A command held up on the way (a network link that failed and came back) is counted, never applied."""
+    h = harness(None, mode='realtime', command_timeout=0.05, diagnostics_period=0.05)
+    assert h.spin_until(lambda: h.bridge.world.t_ns >= 200 * MS)
+    h.probe.send([50.0, 50.0], h.bridge.world.t_ns - 100 * MS)
+    assert h.spin_until(lambda: (h.probe.last_diag('commands') or (0, 0, {}))[2].get('outdated_commands') == '1')
+    assert h.bridge.brakes_engaged and h.bridge.brake_reason == 'no command yet'
+    assert all(np.abs(effort).max() < 50.0 for *_, effort in h.probe.states)
+    h.probe.send(hold_polar(0, np.array([0.0, 0.5]), None), h.bridge.world.t_ns)   # a fresh one is applied
+    assert h.spin_until(lambda: not h.bridge.brakes_engaged)
+
+
 def test_realtime_factor_holds_the_simulation_back(harness):
     """At a factor of 0.5 the simulation advances, never faster than 0.5 s per wall second.
 

@@ -444,17 +444,25 @@ def _robustness_summary():
             'bad_inputs_total': 8000, 'figures': fig}
 
 
-def test_readme_robustness_table_is_generated_from_a_whole_run_only(tmp_path):
-    summary = _robustness_summary()
-    path = tmp_path / 'summary.json'
-    path.write_text(json.dumps(summary))
+def _generated_table(tmp_path, option, figures, begin, end):
+    """(README path, figures path, main's args, the README's text) after `main` generated the table between
+    `begin` and `end` (typed by hand before) from `figures` given as `option`."""
+    path = tmp_path / 'figures.json'
+    path.write_text(json.dumps(figures))
     readme = tmp_path / 'README.md'
-    readme.write_text(readme_results.BEGIN + '\n' + readme_results.END + '\n## Safety\n'
-                      + readme_results.ROBUSTNESS_BEGIN + '\n| typed | by hand |\n' + readme_results.ROBUSTNESS_END + '\n')
-    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), '--robustness', str(path)]
+    readme.write_text(readme_results.BEGIN + '\n' + readme_results.END + '\n## Figures\n'
+                      + begin + '\n| typed | by hand |\n' + end + '\n')
+    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), option, str(path)]
     assert readme_results.main(args) == 0
     text = readme.read_text()
     assert '| typed | by hand |' not in text
+    return readme, path, args, text
+
+
+def test_readme_robustness_table_is_generated_from_a_whole_run_only(tmp_path):
+    summary = _robustness_summary()
+    readme, path, _, text = _generated_table(tmp_path, '--robustness', summary, readme_results.ROBUSTNESS_BEGIN,
+                                             readme_results.ROBUSTNESS_END)
     for cell in ('| 15 / 15 |', '| 4,000 each, 8,000 in all (bridge robot_joint_commands, controller joint_states) |', '| 41,638 |', '| **0** |',
                  '| 0.051 s of simulated time (command_timeout 0.05 s) / 0.0 mm |', '| 0.50 s (state_timeout 0.5 s)',
                  'at 19,999 Hz for 5 s', '| 1.7 MB / 4.9 ms |', '| 7-24 ms / 0 of 340 |', '| 11.1 mm, with ERROR / 109 mm |',
@@ -464,6 +472,45 @@ def test_readme_robustness_table_is_generated_from_a_whole_run_only(tmp_path):
     path.write_text(json.dumps(summary))
     with pytest.raises(ValueError, match=r"partial run \(missing \['1_controller_sigkill'\]\)"):
         readme_results.update(readme, tmp_path / 'none', robustness=path)
+
+def _two_hosts_figures():
+    """The figures test/e2e/test_two_hosts.py writes, of a whole, passing run."""
+    return {
+        'realtime_packets_per_s_a_to_b': 1147, 'realtime_packets_per_s_b_to_a': 2052,
+        'realtime_outage_longest_joint_states_gap_ms': 16.4, 'realtime_outage_sim_s_per_wall_s': 1.001,
+        'realtime_outage_longest_publish_ms_bridge': 1.08, 'realtime_outage_longest_publish_ms_controller': 1.21,
+        'lockstep_outage_longest_publish_ms_bridge': 0.25, 'lockstep_outage_longest_publish_ms_controller': 0.27,
+        'realtime_outage_brakes_command_age_ms': 51.0, 'realtime_outage_controller_error_after_s': 0.599,
+        'realtime_outage_commands_resume_after_s': 0.233, 'lockstep_outage_resume_after_s': 0.116,
+        'realtime_outage_resume_torque_minus_gravity_hold': 0.0, 'realtime_outage_rss_growth_mb_bridge': 3.59,
+        'realtime_outage_rss_growth_mb_controller': 0.81, 'lockstep_outage_republished_states': 12,
+        'lockstep_bit_identical_ticks_states': 1087, 'lockstep_bit_identical_ticks_commands': 1047,
+        'lockstep_static_peers_packets_a_to_b': 5378, 'lockstep_static_peers_multicast_packets': 0,
+        'realtime_subnet_multicast_packets': 28, 'tests_failed': 0, 'tests_run': 12}
+
+
+def test_readme_two_hosts_table_is_generated_from_a_whole_passing_run_only(tmp_path, capsys):
+    fig = _two_hosts_figures()
+    readme, path, args, text = _generated_table(tmp_path, '--two-hosts', fig, readme_results.TWO_HOSTS_BEGIN,
+                                                readme_results.TWO_HOSTS_END)
+    for cell in ('| 1,147 / 2,052 | > 500 |', '| 16.4 ms | < 50 ms |', '| 1.001 |',
+                 '| 1.08 / 1.21 ms; 0.25 / 0.27 ms | < 20 ms |', '| 51.0 ms |', '| 0.60 s |', '| 0.23 / 0.12 s |',
+                 '| 0.00 N m |', '| 3.6 / 0.8 MB |', '| 12 |', 'bit-identical (1,087 states, 1,047 commands)',
+                 '| 5,378 / 0 (the SUBNET run: 28) | > 500 / 0 |'):
+        assert cell in text, cell
+    del fig['lockstep_static_peers_multicast_packets'], fig['realtime_subnet_multicast_packets']   # no tcpdump
+    assert '| 5,378 / not counted (no tcpdump) |' in readme_results.two_hosts_table(fig)
+    del fig['realtime_outage_sim_s_per_wall_s']                     # a run with -k: refused, naming what is missing
+    with pytest.raises(ValueError, match=r"partial run \(missing \['realtime_outage_sim_s_per_wall_s'\]\)"):
+        readme_results.two_hosts_table(fig)
+    failed = dict(_two_hosts_figures(), tests_failed=2)
+    path.write_text(json.dumps(failed))
+    with pytest.raises(ValueError, match='2 tests failed'):
+        readme_results.update(readme, tmp_path / 'none', two_hosts=path)
+    before = readme.read_text()                                     # the command line leaves the table and says so
+    assert readme_results.main(args) == 0 and readme.read_text() == before
+    assert 'two-host figures of a run in which 2 tests failed: that table is left as it is' in capsys.readouterr().err
+
 
 def test_lost_ticks_are_reported_as_time_ranges():
     assert demo.time_ranges([]) == []
