@@ -468,6 +468,81 @@ def wrenches(force_axes):
     return build()
 
 
+#: faults of ~/target_pose and ~/target_wrench the controller must refuse
+POSE_REJECT = ('nan', 'inf', 'huge', 'quat_zero', 'quat_far', 'frame')
+TARGET_WRENCH_REJECT = ('nan', 'inf', 'huge', 'frame')
+#: frames other than a URDF's base the fuzzers try (the base's own name is added per robot)
+OTHER_FRAMES = ('world', 'map', 'base_link', 'lbr_iiwa_link_7', ' ', 'BASE', 'lbr_iiwa_link_0 ', '\u00e9')
+
+
+def _unit_quaternion(draw, st):
+    """A unit quaternion (x, y, z, w) from four drawn components (the identity when they nearly vanish)."""
+    quat = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(4)])
+    norm = float(np.linalg.norm(quat))
+    return (quat / norm).tolist() if norm > 0.1 else [0.0, 0.0, 0.0, 1.0]
+
+
+def target_poses(base_frame):
+    """geometry_msgs/PoseStamped fields for the controller's ~/target_pose (impedance, hybrid), each with a fault
+    or an edge case. Refused: nan, inf (in the position or the orientation), huge (a position beyond 1e6 m),
+    quat_zero (a quaternion of norm 0 or nearly), quat_far (norm outside [0.5, 2]), frame (header.frame_id
+    other than `base_frame` or ''). Accepted: quat_scaled (norm in (0.5, 2): normalised), stamp (past, far
+    future, negative: at once or pending). The position lies within 1 m of the base otherwise."""
+    st = _strategies()
+    kinds = ('nan', 'inf', 'huge', 'quat_zero', 'quat_far', 'quat_scaled', 'frame', 'stamp')
+
+    @st.composite
+    def build(draw):
+        kind = draw(st.sampled_from(kinds))
+        position = [draw(st.floats(-1.0, 1.0)) for _ in range(3)]
+        quat = _unit_quaternion(draw, st)
+        frame = draw(st.sampled_from(('', base_frame)))
+        stamp = None
+        if kind in ('nan', 'inf'):
+            i = draw(st.integers(0, 6))
+            value = draw(st.sampled_from(_nonfinite(kind)))
+            if i < 3:
+                position[i] = value
+            else:
+                quat[i - 3] = value
+        elif kind == 'huge':
+            position[draw(st.integers(0, 2))] = draw(st.sampled_from(HUGE))
+        elif kind == 'quat_zero':
+            quat = draw(st.sampled_from(([0.0] * 4, [0.0, 0.0, 0.0, 1e-300], [1e-9, -1e-9, 0.0, 0.0])))
+        elif kind == 'quat_far':
+            scale = draw(st.sampled_from((0.1, 0.49, 2.01, 10.0, 1e6, 1e300)))
+            quat = [v * scale for v in quat]
+        elif kind == 'quat_scaled':
+            scale = draw(st.floats(0.51, 1.99))
+            quat = [v * scale for v in quat]
+        elif kind == 'frame':
+            frame = draw(st.sampled_from(OTHER_FRAMES))
+        else:
+            stamp = draw(st.sampled_from(((0, 1), (INT32_MAX, 0), (-5, 0), 'past')))
+        return Bad(kind, kind in POSE_REJECT, position=position, orientation=quat, frame_id=frame, stamp=stamp)
+    return build()
+
+
+def target_wrenches(base_frame):
+    """geometry_msgs/WrenchStamped fields for the controller's ~/target_wrench (six task axes: force and
+    torque), each with a fault or an edge case. Refused: nan, inf, huge (beyond 1e6) in a component, frame
+    (header.frame_id other than `base_frame` or ''). Accepted: ok (finite, up to 20 N and 2 N m)."""
+    st = _strategies()
+
+    @st.composite
+    def build(draw):
+        kind = draw(st.sampled_from(('nan', 'inf', 'huge', 'frame', 'ok')))
+        six = [draw(st.floats(-20.0, 20.0)) for _ in range(3)] + [draw(st.floats(-2.0, 2.0)) for _ in range(3)]
+        frame = draw(st.sampled_from(('', base_frame)))
+        if kind in ('nan', 'inf', 'huge'):
+            six[draw(st.integers(0, 5))] = draw(st.sampled_from(HUGE if kind == 'huge' else _nonfinite(kind)))
+        elif kind == 'frame':
+            frame = draw(st.sampled_from(OTHER_FRAMES))
+        stamp = draw(st.sampled_from(((0, 0), (INT32_MAX, 0), (-5, 0), None)))
+        return Bad(kind, kind in TARGET_WRENCH_REJECT, force=six[:3], torque=six[3:], stamp=stamp, frame_id=frame)
+    return build()
+
+
 def commands(joints):
     """sensor_msgs/JointState effort commands for the bridge's robot_joint_commands, each with a fault.
 
@@ -544,15 +619,19 @@ def joint_state_msg(bad, now_ns):
     return msg
 
 
+def _reference_stamp(msg_stamp, stamp, now_ns):
+    """A reference's stamp: (sec, nanosec), 'past' (an hour before now_ns) or None (zero: at once)."""
+    if stamp == 'past':
+        stamp = divmod(max(int(now_ns) - 3600 * NS, 1), NS)
+    _stamp(msg_stamp, stamp if stamp is not None else (0, 0), now_ns)
+
+
 def trajectory_msg(bad, now_ns):
     from builtin_interfaces.msg import Duration
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
     f = bad.fields
     msg = JointTrajectory()
-    stamp = f['stamp']
-    if stamp == 'past':
-        stamp = divmod(max(int(now_ns) - 3600 * NS, 1), NS)
-    _stamp(msg.header.stamp, stamp if stamp is not None else (0, 0), now_ns)
+    _reference_stamp(msg.header.stamp, f['stamp'], now_ns)
     msg.joint_names = list(f['joint_names'])
     for i, t in enumerate(f['times']):
         p = JointTrajectoryPoint()
@@ -574,6 +653,19 @@ def wrench_msg(bad, now_ns):
     msg.header.frame_id = f['frame_id']
     msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z = (float(v) for v in f['force'])
     msg.wrench.torque.x, msg.wrench.torque.y, msg.wrench.torque.z = (float(v) for v in f['torque'])
+    return msg
+
+
+def pose_msg(bad, now_ns):
+    """The PoseStamped of a target_poses example; a 'past' stamp is an hour before `now_ns`."""
+    from geometry_msgs.msg import PoseStamped
+    f = bad.fields
+    msg = PoseStamped()
+    _reference_stamp(msg.header.stamp, f['stamp'], now_ns)
+    msg.header.frame_id = f['frame_id']
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = (float(v) for v in f['position'])
+    o.x, o.y, o.z, o.w = (float(v) for v in f['orientation'])
     return msg
 
 

@@ -9,12 +9,15 @@ import dataclasses
 
 @dataclasses.dataclass
 class Counters:
-    """The node's own counts: commands sent, trajectories accepted, rejected inputs per source (and
+    """The node's own counts: commands sent, trajectories, target poses and wrenches accepted, rejected inputs
+    per source (and
     the last reason), the wall time of answering a state (ns), whether a wrench was ever measured."""
 
     sources: tuple
     commands_sent: int = 0
     trajectories_accepted: int = 0
+    target_poses_accepted: int = 0
+    target_wrenches_accepted: int = 0
     last_rejection: str = ''
     wrench_seen: bool = False
     tick_count: int = 0

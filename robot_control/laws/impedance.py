@@ -18,12 +18,15 @@ robot_control.laws.operational_space with F' = xdd_d and the wrench K E + D Ed +
 
     tau = rnea(q, qd, qdd_0) + J^T (Lambda (xdd_d - Jdot qd - J qdd_0) + K E + D Ed + F_ff).
 """
+import functools
+import math
+
 import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Law
-from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia,
-                                                  check_jacobian, posture_gains)
+from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
+                                                  check_task_dimension, posture_gains)
 from robot_control.validation import ArgumentError
 
 #: the six axes of a pose, in the order of cartesian_stiffness and cartesian_damping
@@ -31,10 +34,13 @@ POSE_AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')
 ROTATION_AXES = ('rx', 'ry', 'rz')
 
 
-def _damping(Lambda, K, zeta):
-    """D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2), (m, m): Lambda (m, m) symmetric positive definite, K (m,)."""
-    w, V = np.linalg.eigh(Lambda)
-    root = (V * np.sqrt(w)) @ V.T
+def rotation_mask(axes):
+    """(m,) bool: True on the orientation axes among the task `axes`."""
+    return np.array([a in ROTATION_AXES for a in axes], dtype=bool)
+
+
+def _damping(root, K, zeta):
+    """D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2), (m, m): root = Lambda^1/2 (m, m), K (m,)."""
     k = np.sqrt(K)
     return zeta * (root * k + k[:, None] * root)
 
@@ -42,12 +48,14 @@ def _damping(Lambda, K, zeta):
 def _bounded(E, rotation, limits):
     """E with its translation part and its rotation part (mask `rotation`) each scaled down to a norm of
     at most limits = (m, rad)."""
-    out = E.copy()
-    for part, limit in ((~rotation, limits[0]), (rotation, limits[1])):
-        norm = np.linalg.norm(E[part])
-        if norm > limit:
-            out[part] *= limit / norm
-    return out
+    sq = E * E
+    rot = float(sq @ rotation)
+    trans = float(sq.sum()) - rot
+    scale_t = limits[0] / math.sqrt(trans) if trans > limits[0] ** 2 else 1.0
+    scale_r = limits[1] / math.sqrt(rot) if rot > limits[1] ** 2 else 1.0
+    if scale_t == 1.0 and scale_r == 1.0:
+        return E.copy()
+    return E * np.where(rotation, scale_r, scale_t)
 
 
 def _impedance(model, q, qd, J, Jdot_qd, E, Ed, xdd_d, K, D, F_ff, qdd_0, Lambda):
@@ -61,10 +69,19 @@ def axis_values(name, values, axes):
     values = validation.vector(name, values, 6)
     if min(values.tolist()) < 0.0:
         raise ArgumentError(name, f'expected values >= 0, got {values.tolist()}')
-    unknown = [a for a in axes if a not in POSE_AXES]
-    if unknown:
+    index = _pose_index(tuple(axes))
+    if index is None:
+        unknown = [a for a in axes if a not in POSE_AXES]
         raise ArgumentError(name, f'the task axes {unknown} are not among {list(POSE_AXES)}')
-    return np.array([values[POSE_AXES.index(a)] for a in axes])
+    return values[index]
+
+
+@functools.lru_cache(maxsize=64)
+def _pose_index(axes):
+    """The index array of the task `axes` (a tuple) in POSE_AXES, or None when one is not a pose axis."""
+    if any(a not in POSE_AXES for a in axes):
+        return None
+    return np.array([POSE_AXES.index(a) for a in axes], dtype=np.intp)
 
 
 def impedance(model, q, qd, x_d, xd_d, xdd_d, stiffness, damping_ratio=1.0, damping=None, F_ff=None,
@@ -85,10 +102,10 @@ def impedance(model, q, qd, x_d, xd_d, xdd_d, stiffness, damping_ratio=1.0, damp
     kp0, kv0 = posture_gains(k_posture, n)
     limits = validation.limit_vector('max_pose_error', max_pose_error, 2)
     x, J, Jdot_qd = model._task(q, qd)
-    check_jacobian(J)
-    Lambda = _task_inertia(model, q, J)
-    D = _damping(Lambda, K, ratio) if damping is None else np.diag(axis_values('damping', damping, model.task_axes))
-    E = _bounded(model._task_difference(x_d, x), np.isin(model.task_axes, ROTATION_AXES), limits)
+    check_task_dimension(J)
+    Lambda, root = _task_inertia_root(model, q, J)
+    D = _damping(root, K, ratio) if damping is None else np.diag(axis_values('damping', damping, model.task_axes))
+    E = _bounded(model._task_difference(x_d, x), rotation_mask(model.task_axes), limits)
     qdd_0 = _posture_acceleration(q, qd, q_posture, kp0, kv0)
     return validation.result('tau', _impedance(model, q, qd, J, Jdot_qd, E, xd_d - J @ qd, xdd_d, K, D, F_ff, qdd_0,
                                                Lambda))
@@ -113,7 +130,7 @@ class Impedance(Law):
         explicit = config.cartesian_damping
         self.D = None if explicit is None else np.diag(axis_values('cartesian_damping', explicit, model.task_axes))
         self.ratio = config.cartesian_damping_ratio
-        self.rotation = np.isin(model.task_axes, ROTATION_AXES)
+        self.rotation = rotation_mask(model.task_axes)
         self.limits = config.max_pose_error
         self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
 
@@ -139,9 +156,8 @@ class Impedance(Law):
         tick.Ed = xd_d - tick.xd
 
     def torque(self, tick, int_E):
-        check_jacobian(tick.J)
-        Lambda = _task_inertia(self.model, tick.q, tick.J)
-        D = _damping(Lambda, self.K, self.ratio) if self.D is None else self.D
+        Lambda, root = _task_inertia_root(self.model, tick.q, tick.J)
+        D = _damping(root, self.K, self.ratio) if self.D is None else self.D
         F_ff = tick.wrench if tick.wrench is not None else np.zeros(self.model.task_dim)
         qdd_0 = _posture_acceleration(tick.q, tick.qd, tick.q_d, self.kp0, self.kv0)
         return _impedance(self.model, tick.q, tick.qd, tick.J, tick.Jdot_qd, tick.E, tick.Ed, tick.ref[2], self.K, D,

@@ -24,12 +24,24 @@ from robot_control.validation import ArgumentError
 MAX_JACOBIAN_COND = 1e9
 
 
-def check_jacobian(J):
-    """ArgumentError naming q when the task has more axes than joints or J(q) is (nearly) singular."""
+#: largest accepted condition number of J M^-1 J^T (the inverse task inertia), where the task inertia
+#: comes from its eigendecomposition (_task_inertia_root): the eigenvalues' rounding is about 1e-16 of the
+#: largest, so a singular J shows a smallest one below 1e-14 of it (MAX_JACOBIAN_COND^2 would drown in
+#: rounding); the mass weighting alone spreads the iiwa's (a light last link) over 1e3 to 1e4
+MAX_INERTIA_COND = 1e14
+
+
+def check_task_dimension(J):
+    """ArgumentError naming J when the task has more axes than joints."""
     m, n = J.shape
     if m > n:
         raise ArgumentError('J', f'task dimension {m} exceeds the {n} joints; operational-space control '
                                  'needs m <= n')
+
+
+def check_jacobian(J):
+    """ArgumentError naming q when the task has more axes than joints or J(q) is (nearly) singular."""
+    check_task_dimension(J)
     sv = np.linalg.svd(J, compute_uv=False)
     if not sv[-1] * MAX_JACOBIAN_COND > sv[0]:
         raise ArgumentError('q', f'task Jacobian singular or nearly (singular values {sv.tolist()})')
@@ -38,6 +50,17 @@ def check_jacobian(J):
 def _task_inertia(model, q, J):
     """The operational-space inertia Lambda = (J M^-1 J^T)^-1, (m, m), kg and kg m^2; J full rank."""
     return np.linalg.inv(J @ model._Minv(q) @ J.T)
+
+
+def _task_inertia_root(model, q, J):
+    """(Lambda, Lambda^1/2), each (m, m) symmetric positive definite, from one eigendecomposition
+    J M^-1 J^T = V diag(w) V^T: Lambda = V diag(1/w) V^T, Lambda^1/2 = V diag(w^-1/2) V^T. ArgumentError
+    naming q when J(q) is (nearly) singular: the spread of w beyond MAX_INERTIA_COND (J (m, n), m <= n)."""
+    w, V = np.linalg.eigh(J @ model._Minv(q) @ J.T)
+    if not w[0] * MAX_INERTIA_COND > w[-1]:
+        raise ArgumentError('q', f'task Jacobian singular or nearly (eigenvalues of J M^-1 J^T {w.tolist()})')
+    root = V / np.sqrt(w)
+    return root @ root.T, root @ V.T
 
 
 def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda=None):

@@ -365,16 +365,21 @@ def wrench_along(axes, values, stamp_ns=0, frame_id=''):
 QUATERNION_NORM = (0.5, 2.0)
 
 
+def check_base_frame(msg, base_frame):
+    """ArgumentError naming header.frame_id unless the stamped message `msg` is in `base_frame` (or '')."""
+    frame = msg.header.frame_id
+    if frame not in ('', base_frame):
+        raise ArgumentError('header.frame_id', f"expected the model's base frame {base_frame!r} (or ''), "
+                                               f'got {frame!r}')
+
+
 def pose_target(msg, base_frame):
     """geometry_msgs/PoseStamped in the model's base frame -> (position (3,) m, unit quaternion (4,) x, y,
     z, w); the model turns them into its task position (RobotModel.task_position).
 
     header.frame_id '' or `base_frame`; a quaternion of norm in QUATERNION_NORM is normalised, any
     other is refused; finite, plausible values. ArgumentError naming the field."""
-    frame = msg.header.frame_id
-    if frame not in ('', base_frame):
-        raise ArgumentError('header.frame_id', f"expected the model's base frame {base_frame!r} (or ''), "
-                                               f'got {frame!r}')
+    check_base_frame(msg, base_frame)
     p, o = msg.pose.position, msg.pose.orientation
     position = np.array([p.x, p.y, p.z])
     if not (np.isfinite(position).all() and _plausible(position)):

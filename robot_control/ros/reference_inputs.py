@@ -81,13 +81,19 @@ class ReferenceInputs:
                                        t_start=self._s.timeline.time_of(stamp_ns) if ahead else None)
         except ValueError as exc:
             self._s.reject('target_pose', exc)
+            return
+        self._s.counters.target_poses_accepted += 1
 
     def on_target_wrench(self, msg):
-        """A feed-forward wrench on the task axes (impedance), the robot on its environment."""
+        """A feed-forward wrench on the task axes (impedance), the robot on its environment, in the model's
+        base frame (header.frame_id that frame or '')."""
         model = self._s.core.config.model
         try:
             if not model.task_dim:
                 raise ValueError('the model has no task space (set tip)')
+            conversions.check_base_frame(msg, model.base_frame)
             self._s.core.set_target_wrench(conversions.wrench_force(msg, model.task_axes))
         except ValueError as exc:
             self._s.reject('target_wrench', exc)
+            return
+        self._s.counters.target_wrenches_accepted += 1

@@ -12,13 +12,15 @@ watching costs the loop next to nothing.
 B2 lockstep: steps/s = (stamp advance / control period) / (reception time advance) over a
 window, for polar_two_link, iiwa and the bare ping-pong (robot_control.tools.bench_pingpong) with the
 same messages, QoS and executors, interleaved round by round; medians over the rounds.
-B3 realtime at 1 kHz, per scenario, from the samples of the whole run:
+B3 realtime at 1 kHz, per run of REALTIME_RUNS (the polar arm; the iiwa under computed torque, under hybrid
+control pressing on the table and under Cartesian impedance, with the parameters of the demo's
+experiments iiwa_hybrid_line and impedance_push), from the samples of the whole run:
 - latency of period k = reception of command k (at the bench) - publication of state k (bridge);
 - deadline hit: command k received before state k+1 was published (the bridge publishes
   right after the physics step, so this is "before the next step" up to that step's duration);
   a period whose command never arrives is a miss;
 - real-time factor = simulated time advance / publication time advance of the states.
-Headline B3 keys are the worse of the two scenarios; per-scenario keys carry _polar / _iiwa.
+Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance.
 """
 import importlib
 import math
@@ -108,18 +110,38 @@ def node_executor(module):
         return 'single'
 
 
-def node_commands(kind, mode):
-    """[(name, argv)] of the two processes of a run: 'pingpong' or a scenario name. The ping-pong
-    ends use the executors of the nodes they stand for: ping the bridge's, pong the controller's."""
+#: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)
+REALTIME_RUNS = {'polar': ('polar_two_link', None), 'iiwa': ('iiwa', None),
+                 'iiwa_hybrid': ('iiwa', 'iiwa_hybrid_line'), 'iiwa_impedance': ('iiwa', 'impedance_push')}
+
+
+def experiment_params(name):
+    """(bridge, controller) parameter overrides of demo experiment `name` ({}, {} for None), as -p arguments."""
+    if name is None:
+        return [], []
+    from robot_control.tools import demo, demo_experiments
+    exp = demo_experiments.get(name)
+
+    def args(params):
+        return [a for k, v in params.items() for a in ('-p', f'{k}:={demo.param_value(v)}')]
+    return args(exp.bridge), args(demo.controller_params(exp))
+
+
+def node_commands(kind, mode, experiment=None):
+    """[(name, argv)] of the two processes of a run: 'pingpong' or a scenario name, with the parameters of
+    demo experiment `experiment` (None: the scenario's file alone). The ping-pong ends use the executors of
+    the nodes they stand for: ping the bridge's, pong the controller's."""
     if kind == 'pingpong':
         joints = list(scenarios.get('polar_two_link').joints)
         ends = (('ping', 'sim_bridge.bridge_node'), ('pong', 'robot_control.ros.controller_node'))
         return [(role, ['-m', 'robot_control.tools.bench_pingpong', role, '--joints', *joints,
                         '--executor', node_executor(module)]) for role, module in ends]
     params = os.path.join(ROOT, 'config', f'{kind}.yaml')
-    bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params, '-p', f'mode:={mode}',
-              '-p', 'physics_step:=0.001', '-p', f'control_period:={PERIOD_NS / NS}', '-p', 'real_time_factor:=1.0']
-    controller = ['-m', 'robot_control.ros.controller_node', '--ros-args', '--params-file', params]
+    bridge_extra, controller_extra = experiment_params(experiment)
+    bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params, *bridge_extra,
+              '-p', f'mode:={mode}', '-p', 'physics_step:=0.001', '-p', f'control_period:={PERIOD_NS / NS}',
+              '-p', 'real_time_factor:=1.0']
+    controller = ['-m', 'robot_control.ros.controller_node', '--ros-args', '--params-file', params, *controller_extra]
     return [('sim_bridge', bridge), ('controller', controller)]
 
 
@@ -215,11 +237,12 @@ class Session:
     def __exit__(self, *exc):
         self.close()
 
-    def run(self, kind, mode, measure):
-        """Start the two processes of `kind`, wait for the loop to answer, return measure(observer, procs)."""
-        procs = Children(self.env, os.path.join(self.logdir, f'{kind}_{mode}'))
+    def run(self, kind, mode, measure, experiment=None, label=None):
+        """Start the two processes of `kind` (with the parameters of demo experiment `experiment`), wait for
+        the loop to answer, return measure(observer, procs); logs in <logdir>/<label or kind>_<mode>/."""
+        procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}'))
         try:
-            for name, argv in node_commands(kind, mode):
+            for name, argv in node_commands(kind, mode, experiment):
                 procs.start(name, argv)
             self.observer.drain()
             self.observer.wait_for('robot_joint_commands', procs)
@@ -337,19 +360,18 @@ def realtime_run(plan):
 
 
 def bench_realtime(plan, env, log, logdir):
-    """B3 metrics per scenario and the worse of the two as the headline keys."""
+    """B3 metrics per run of REALTIME_RUNS and the worst of them as the headline keys."""
     per = {}
     with Session(env, logdir) as session:
-        for scenario in ('polar_two_link', 'iiwa'):
-            per[scenario] = session.run(scenario, 'realtime', realtime_run(plan))
-            log(f'  {scenario}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[scenario].items()))
+        for key, (scenario, experiment) in REALTIME_RUNS.items():
+            per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key)
+            log(f'  {key}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[key].items()))
         warn_killed(session.killed, log)
     out = {'realtime_1khz_deadline_hit_ratio': min(m['hit_ratio'] for m in per.values()),
            'realtime_latency_p50_ms': max(m['latency_p50_ms'] for m in per.values()),
            'realtime_latency_p99_ms': max(m['latency_p99_ms'] for m in per.values()),
            'realtime_rtf': min(m['rtf'] for m in per.values())}
-    for scenario, m in per.items():
-        s = SHORT[scenario]
+    for s, m in per.items():
         out.update({f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
                     f'realtime_latency_p50_ms_{s}': m['latency_p50_ms'],
                     f'realtime_latency_p99_ms_{s}': m['latency_p99_ms'], f'realtime_rtf_{s}': m['rtf']})

@@ -25,7 +25,8 @@ controller that cannot answer every 1 ms tick degrades the response accordingly.
 A run, all waits bounded: start the recorder; start the bridge and pause it; start the controller
 and wait until it is connected; wait for the first tick of every stream (t = 0 is the origin in
 lockstep); send the experiment's references stamped at origin + t (the controller confirms in its
-log) and resume; run for `duration` s of simulation, sending force references as they fall due;
+log) and resume; run for `duration` s of simulation, sending force references as they fall due and
+changing the bridge's run-time parameters when their time has come (pause, set, resume: BridgeSchedule);
 pause, wait for the last tick, stop the recorder and the processes; align the collected messages
 per control tick; compute the metrics, plot (robot_control.tools.plot.tracking_figure), write the files.
 """
@@ -226,7 +227,8 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         end_ns = origin_ns + int(round(duration * NS))
         progress = Progress(live.collector, origin_ns, units, f_names, say if write else None)
         say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
-        live.run_until(end_ns, ForceSchedule(experiment.force_events, f_names, origin_ns, say), progress)
+        changes = BridgeSchedule(experiment.bridge_events, origin_ns, say)
+        live.run_until(end_ns, (ForceSchedule(experiment.force_events, f_names, origin_ns, say), changes), progress)
         live.pause()
         wall = time.monotonic() - t_wall0
         live.wait_for_last_tick(end_ns)
@@ -238,6 +240,7 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         result.exit_codes = live.stop_nodes()
         data = demo_ros.align(live.collector, joints, experiment.units, f_names, f_index, law, origin_ns, end_ns,
                               limits, lockstep=mode == 'lockstep')
+        data.events = changes.applied
     result.summary = summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say)
     write_outputs(out_dir, result.summary, data, experiment, f'{law}, {mode}' if plot else None)
     result.data = data if keep_data else None
@@ -264,14 +267,39 @@ class ForceSchedule:
         self.say = say
         self.next_send_ns = origin_ns
 
-    def send_due(self, control, stamp_ns):
-        """Send what is due once the simulation has reached `stamp_ns` (ns)."""
+    def send_due(self, live, stamp_ns):
+        """Send what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
         while self.events and stamp_ns >= self.next_send_ns:
             t_ev, f_ev = self.events.pop(0)
             self.next_send_ns = self.origin_ns + int(round(t_ev * NS))
-            control.send_force(self.axes, f_ev, stamp_ns=self.next_send_ns)
+            live.control.send_force(self.axes, f_ev, stamp_ns=self.next_send_ns)
             self.say(f'[demo] force reference {dict(zip(self.axes, f_ev))} N from t = {t_ev:.3f} s (sent at '
                      f't = {(stamp_ns - self.origin_ns) / NS:.3f} s)', flush=True)
+
+
+class BridgeSchedule:
+    """The experiment's changes of the bridge's run-time parameters ((t, {name: value}), ...): once the
+    simulation has reached t the bridge is paused, the parameters are set and it resumes. A change acts
+    from the tick the bridge paused at (its step to the next tick is the first with it); `applied` lists
+    them: [{'t': t s, 't_applied': that tick, s, 'parameters': {name: value}}]."""
+
+    def __init__(self, events, origin_ns, say):
+        self.events = sorted(events, key=lambda event: event[0])
+        self.origin_ns = origin_ns
+        self.say = say
+        self.applied = []
+
+    def send_due(self, live, stamp_ns):
+        """Apply what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
+        while self.events and stamp_ns >= self.origin_ns + int(round(self.events[0][0] * NS)):
+            t_ev, values = self.events.pop(0)
+            live.pause()
+            t_applied = (live.paused_at() - self.origin_ns) / NS
+            live.control.set_bridge_parameters(values, poll=live.alive)
+            live.resume()
+            self.applied.append({'t': t_ev, 't_applied': t_applied, 'parameters': dict(values)})
+            self.say(f'[demo] bridge parameters {values} from t = {t_applied:.3f} s (due at t = {t_ev:.3f} s)',
+                     flush=True)
 
 
 class LiveRun:
@@ -380,9 +408,20 @@ class LiveRun:
     def resume(self):
         self.control.pause(False, poll=self.alive)
 
-    def run_until(self, end_ns, forces, progress):
-        """Spin until the command of the tick at `end_ns` has arrived, sending the force references
-        (a ForceSchedule) as they fall due; RuntimeError when the simulation stalls for STALL_TIMEOUT s."""
+    def paused_at(self, timeout=5.0):
+        """The stamp (ns) of the state the paused bridge holds: the one it re-publishes every 0.1 s."""
+        collector, seen = self.collector, self.collector.count('/joint_states')
+
+        def republished():
+            stamps = collector.last_stamps_ns('/joint_states', 2)
+            return collector.count('/joint_states') > seen and len(stamps) == 2 and stamps[0] == stamps[1]
+        self.control.spin_until(republished, timeout, self.alive, 'the paused bridge to re-publish its state')
+        return collector.last_stamp_ns()
+
+    def run_until(self, end_ns, schedules, progress):
+        """Spin until the command of the tick at `end_ns` has arrived, sending the force references and the
+        bridge's parameter changes (`schedules`: a ForceSchedule, a BridgeSchedule) as they fall due;
+        RuntimeError when the simulation stalls for STALL_TIMEOUT s."""
         collector = self.collector
         last_progress_wall, last_stamp = time.monotonic(), -1
         while True:
@@ -398,7 +437,8 @@ class LiveRun:
                 raise RuntimeError(f'the simulation stalled at t = {stamp / NS:.3f} s for {STALL_TIMEOUT:g} s\n'
                                    f'sim_bridge log:\n{self.bridge.log_tail()}\n'
                                    f'controller log:\n{self.controller.log_tail()}')
-            forces.send_due(self.control, stamp)
+            for schedule in schedules:
+                schedule.send_due(self, stamp)
             progress.maybe()
 
     def wait_for_last_tick(self, end_ns):
@@ -453,6 +493,7 @@ def summarize_run(data, experiment, mode, duration, wall, domain_id, record, plo
         spans = ', '.join(f'{a:.3f}-{b:.3f}' for a, b in time_ranges(data.lost[worst])[:5])
         say(f'[demo] warning: {len(data.lost[worst])} of {data.expected_ticks} ticks did not reach the '
             f'collector ({worst}, t = {spans} s); the metrics use the others', flush=True)
+    summary['bridge_events'] = list(data.events)
     summary['bag'] = 'bag' if record else None
     summary['figure'] = 'tracking.png' if plot else None
     return summary

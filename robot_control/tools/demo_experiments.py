@@ -12,9 +12,13 @@ References reach the controller as ROS messages:
   controller samples it only at the ticks, so it sees the goal at rest one period later.
 - `force`: the initial force reference, the controller parameter f_d with force_ramp_time.
 - `force_events`: later force references, geometry_msgs/WrenchStamped on
-  /controller/wrench_reference sent when the simulation reaches their time. The controller
-  applies a wrench reference on receipt (it has no scheduled start), so in lockstep their
-  instant may vary by a few ticks between runs; the tests' runs do not use them.
+  /controller/wrench_reference stamped with their time and sent ahead of it: the controller
+  applies each at exactly that tick.
+- `bridge_events`: changes of the bridge's run-time parameters (e.g. disturbance.cartesian_force,
+  a push on the tip) at simulation times: when the simulation reaches t the demo pauses the
+  bridge, sets the parameters and resumes. The change acts from the tick the bridge paused at,
+  which the run records (RunData.events, summary `bridge_events`): in lockstep it lies a few
+  ticks after t, and may differ by a tick or two between runs.
 """
 import math
 from dataclasses import dataclass, field
@@ -69,10 +73,13 @@ class Experiment:
     trajectory: TrajectorySpec = None
     force: tuple = None                       # initial f_d per force axis, N (controller parameter)
     force_events: tuple = ()                  # ((t, (f per force axis)), ...) wrench references
+    bridge_events: tuple = ()                 # ((t, {bridge parameter: value}), ...) set at run time
     settle_from: float = 0.0                  # s: start of the change the settling time refers to
     force_window: object = 0.0                # s: force metrics use t >= force_window ("after settling"),
                                               # or ((t0, t1), ...): the union of these intervals
     steady_window: float = 0.25               # s: the final window of the steady-state error
+    response_axis: str = None                 # task axis of the response to a push (bridge_events: on, off)
+    figures: tuple = ()                       # names of the experiment's own figures (demo_metrics.FIGURES)
     notes: str = ''
 
     @property
@@ -130,6 +137,11 @@ def raised_cosine(q_start, amplitude, freq):
 
 
 # -- URDF arms: joint positions for Cartesian targets on the table ------------------------------------
+def quintic(s):
+    """The rest-to-rest timing 10 s^3 - 15 s^4 + 6 s^5 of s in [0, 1] (zero speed and acceleration at both ends)."""
+    return 10 * s**3 - 15 * s**4 + 6 * s**5
+
+
 @dataclass(frozen=True)
 class TableLine:
     """A line an arm draws on its scenario's table: `length` m along +y from (x, y) = `start` at the table
@@ -144,9 +156,10 @@ class TableLine:
     def z(self):
         return scenarios.get(self.scenario).surface.x_e
 
-    def model(self):
+    def model(self, task_space='position'):
+        """The controller's model of the arm, task space 'position' (x, y, z) or 'pose' (also rx, ry, rz)."""
         from robot_control import models
-        return models.for_scenario(scenarios.get(self.scenario))
+        return models.for_scenario(scenarios.get(self.scenario), task_space=task_space)
 
     def start_positions(self, model=None):
         """Joint positions with the tip at the start of the line."""
@@ -160,7 +173,7 @@ class TableLine:
         k = int(round(T / dt))
         taus = np.array([dt * (i + 1) for i in range(k)])
         s = taus / T
-        y = y0 + self.length * (10 * s**3 - 15 * s**4 + 6 * s**5)
+        y = y0 + self.length * quintic(s)
         q = arm_ik(model, (x0, y0, self.z), self.posture)
         pos = []
         for yi in y:
@@ -170,20 +183,22 @@ class TableLine:
 
 
 def arm_ik(model, p, q_init, q_posture=None, tol=1e-12, iters=200):
-    """Joint positions (n,) putting the tip at p (3,), m: damped least squares with a null-space pull
-    toward q_posture (default q_init; the redundancy resolution the hybrid law's posture term also uses)."""
+    """Joint positions (n,) putting the tip at p, a task position of `model` ((3,) m, or with the pose task
+    space (6,): m and the rotation vector, rad): damped least squares on the task difference with a
+    null-space pull toward q_posture (default q_init; the redundancy resolution the task laws' posture term
+    also uses)."""
     q = np.array(q_init, dtype=float)
     q_nom = np.array(q_init if q_posture is None else q_posture, dtype=float)
     p = np.asarray(p, dtype=float)
     eye = np.eye(model.n)
     for _ in range(iters):
-        err = p - model.fk(q)
+        err = model.task_difference(p, model.fk(q))
         if np.linalg.norm(err) < tol:
             break
         J = model.J(q)
         Jp = J.T @ np.linalg.inv(J @ J.T + 1e-10 * np.eye(J.shape[0]))
         q = q + Jp @ err + (eye - Jp @ J) @ (0.5 * (q_nom - q))
-    if np.linalg.norm(p - model.fk(q)) > 1e-9:
+    if np.linalg.norm(model.task_difference(p, model.fk(q))) > 1e-9:
         raise ValueError(f'p: no joint solution found for tip position {p.tolist()}')
     return q
 
@@ -192,6 +207,67 @@ def arm_ik(model, p, q_init, q_posture=None, tol=1e-12, iters=200):
 IIWA_LINE = TableLine('iiwa', (0.0, 0.7, 0.0, -1.6, 0.0, 0.68, 0.0), (0.55, -0.05), 0.10)
 #: the Panda: hand pointing straight down, a 10 cm line from (0.5, -0.05) m
 PANDA_LINE = TableLine('panda', (0.0, 0.35, 0.0, -2.45, 0.0, 2.8, 0.785), (0.5, -0.05), 0.10)
+#: rad, the iiwa's start posture of the free-space experiments (the line's posture)
+IIWA_POSTURE = IIWA_LINE.posture
+
+
+def iiwa_motion(path, t_start, T, dt, model, derivatives=True):
+    """A JointTrajectory following the task path p(s), s in [0, 1] over T s (`path` maps s to a task position
+    of `model`), a point every dt, each an IK solution from the one before (the first from IIWA_POSTURE).
+    derivatives: velocities and accelerations by central differences of the joint positions (consistent
+    with them); False: positions only."""
+    k = int(round(T / dt))
+    taus = np.array([dt * i for i in range(k + 1)])
+    q = arm_ik(model, path(0.0), IIWA_POSTURE)
+    pos = [q.copy()]
+    for tau in taus[1:]:
+        q = arm_ik(model, path(tau / T), q, IIWA_POSTURE)
+        pos.append(q.copy())
+    pos = np.array(pos)
+    rows = (lambda a: tuple(tuple(map(float, r)) for r in a[1:]))
+    if not derivatives:
+        return TrajectorySpec(t_start, tuple(float(t) for t in taus[1:]), rows(pos))
+    vel = np.gradient(pos, dt, axis=0, edge_order=2)
+    acc = np.gradient(vel, dt, axis=0, edge_order=2)
+    return TrajectorySpec(t_start, tuple(float(t) for t in taus[1:]), rows(pos), rows(vel), rows(acc))
+
+
+#: the rotation vector of the tool (link 7) pointing straight down, its x axis along world -x: R = Ry(pi), rad
+IIWA_DOWN = (0.0, math.pi, 0.0)
+
+
+def iiwa_start_pose(z, orientation=IIWA_DOWN):
+    """Joint positions with the tip at the start of the line, height z (m), the tool at `orientation` (rad)."""
+    return tuple(float(v) for v in arm_ik(IIWA_LINE.model('pose'), (*IIWA_LINE.start, z, *orientation), IIWA_POSTURE))
+
+
+def iiwa_vertical_line(t_start, T, z, dt=0.01):
+    """IIWA_LINE at height z in the pose task space: the tool held at IIWA_DOWN (velocities and accelerations included)."""
+    x0, y0 = IIWA_LINE.start
+    return iiwa_motion(lambda s: (x0, y0 + IIWA_LINE.length * quintic(s), z, *IIWA_DOWN), t_start, T, dt,
+                       IIWA_LINE.model('pose'))
+
+
+IIWA_CIRCLE = 0.05                       # m, radius of the circle of pose_tracking (10 cm across)
+IIWA_WRIST = math.radians(20.0)          # rad, largest wrist rotation of pose_tracking
+
+
+def iiwa_circle(t_start, T, dt=0.01):
+    """One turn of a horizontal circle of radius IIWA_CIRCLE from the tip's pose at IIWA_POSTURE (quintic
+    timing over T s), the tool turning about world z by IIWA_WRIST (1 - cos phi) / 2 (out to 20 degrees
+    and back), as a JointTrajectory of the pose task space."""
+    import pinocchio as pin
+    model = IIWA_LINE.model('pose')
+    x0 = model.fk(np.array(IIWA_POSTURE))
+    centre = x0[:3] - (IIWA_CIRCLE, 0.0, 0.0)
+    R0 = pin.exp3(x0[3:])
+
+    def path(s):
+        phi = 2.0 * math.pi * quintic(s)
+        wrist = 0.5 * IIWA_WRIST * (1.0 - math.cos(phi))
+        p = centre + IIWA_CIRCLE * np.array([math.cos(phi), math.sin(phi), 0.0])
+        return np.concatenate([p, pin.log3(pin.exp3(np.array([0.0, 0.0, wrist])) @ R0)])
+    return iiwa_motion(path, t_start, T, dt, model)
 
 
 # -- the experiments -------------------------------------------------------------------------------
@@ -281,7 +357,7 @@ def _hybrid_xyz():
         if tau < ramp:
             s = tau / ramp
             th = w * ramp * (2.5 * s**4 - 3.0 * s**5 + s**6)
-            thd = w * (10 * s**3 - 15 * s**4 + 6 * s**5)
+            thd = w * quintic(s)
             thdd = w * (30 * s**2 - 60 * s**3 + 30 * s**4) / ramp
         else:
             th = w * ramp * 0.5 + w * (tau - ramp)
@@ -320,6 +396,53 @@ def _hybrid_line(name, line, title):
         trajectory=line.trajectory(1.0, 2.0, model=model), settle_from=None, force_window=1.2)
 
 
+PUSH = 10.0                                             # N, the push of impedance_push (along -z)
+IMPEDANCE = {'law': 'impedance', 'task_space': 'pose', 'cartesian_stiffness': [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0]}
+FREE_IIWA = {'initial_positions': list(IIWA_POSTURE), 'surface.enable': False}
+PAYLOAD = {'payload.mass': 2.0, 'payload.com': [0.0, 0.0, 0.05]}   # kg, m in the tip frame
+
+
+def _impedance_push():
+    push = {'disturbance.cartesian_force': [0.0, 0.0, -PUSH]}
+    release = {'disturbance.cartesian_force': [0.0, 0.0, 0.0]}
+    return Experiment(
+        'impedance_push', 'iiwa',
+        f'KUKA iiwa, Cartesian impedance K = 1000 N/m, 100 N m/rad holding its start pose: a {PUSH:g} N push along -z '
+        'on the tip from 0.5 s to 2 s',
+        duration=3.5, law='impedance', controller=dict(IMPEDANCE), bridge=dict(FREE_IIWA),
+        bridge_events=((0.5, push), (2.0, release)), settle_from=None, response_axis='z', figures=('push',),
+        notes='deflection K^-1 F = 10 mm along -z, the other axes still; back without overshoot')
+
+
+def _pose_tracking():
+    return Experiment(
+        'pose_tracking', 'iiwa',
+        'KUKA iiwa, Cartesian impedance (K = 1000 N/m, 100 N m/rad) tracking a 10 cm circle (radius 5 cm) in 3 s '
+        'while the wrist turns 20 degrees and back',
+        duration=3.8, law='impedance', controller=dict(IMPEDANCE), bridge=dict(FREE_IIWA),
+        trajectory=iiwa_circle(0.3, 3.0), settle_from=None, figures=('pose',))
+
+
+def _payload(known):
+    name = 'payload_compensated' if known else 'payload_unmodelled'
+    told = 'configured in the controller' if known else 'unknown to the controller'
+    return Experiment(
+        name, 'iiwa', f'KUKA iiwa, gravity compensation holding 2 kg 5 cm out on the tip, the payload {told}',
+        duration=3.0, law='gravity_compensation',
+        controller={'law': 'gravity_compensation', **(PAYLOAD if known else {})}, bridge={**FREE_IIWA, **PAYLOAD},
+        settle_from=None, figures=('drift',))
+
+
+def _iiwa_hybrid_vertical():
+    return Experiment(
+        'iiwa_hybrid_vertical', 'iiwa',
+        'KUKA iiwa, hybrid control in the pose task space: 10 N down on the table, drawing a 10 cm line in 2 s '
+        'with the tool held vertical',
+        duration=3.5, law='hybrid', controller={'law': 'hybrid', 'task_space': 'pose'},
+        bridge={'initial_positions': list(iiwa_start_pose(IIWA_LINE.z))}, force=(-10.0,),
+        trajectory=iiwa_vertical_line(1.0, 2.0, IIWA_LINE.z), settle_from=None, force_window=1.2, figures=('orientation',))
+
+
 _BUILDERS = {
     'polar_step': _polar_step,
     'planar_fast_path': lambda: _planar('planar_fast_path', 'computed_torque', 'PD computed torque'),
@@ -342,6 +465,11 @@ _BUILDERS = {
     'panda_hybrid_line': lambda: _hybrid_line('panda_hybrid_line', PANDA_LINE, 'Franka Panda (fingers held)'),
     'ur5_ptp': lambda: _ptp('ur5_ptp', 'ur5', 'UR5 (6 DOF, example-robot-data)', scenarios.get('ur5').q0,
                             (0.8, 0.5, -0.6, 0.5, 0.6, 1.0)),
+    'iiwa_hybrid_vertical': _iiwa_hybrid_vertical,
+    'impedance_push': _impedance_push,
+    'pose_tracking': _pose_tracking,
+    'payload_compensated': lambda: _payload(True),
+    'payload_unmodelled': lambda: _payload(False),
 }
 
 #: the experiment `--scenario NAME` runs

@@ -63,6 +63,7 @@ class RunData:
         self.effort_limit = None if effort_limit is None else np.asarray(effort_limit, float)
         self.state_wall_ns = None if state_wall_ns is None else np.asarray(state_wall_ns, dtype=np.int64)
         self.cmd_wall_ns = None if cmd_wall_ns is None else np.asarray(cmd_wall_ns, dtype=np.int64)
+        self.events = []    # the bridge's parameter changes: [{'t', 't_applied', 'parameters'}] (demo.BridgeSchedule)
 
     @property
     def samples(self):
@@ -171,6 +172,76 @@ def critically_damped(t, e0, omega):
     return e0 * (1.0 + omega * t) * np.exp(-omega * t)
 
 
+# -- the experiments' own figures (Experiment.figures) ----------------------------------------------
+def _translation_rotation(data):
+    """(index of the x, y, z entries, index of the rx, ry, rz entries) among the motion entries."""
+    names = data.motion_names
+    return ([i for i, a in enumerate(names) if a in ('x', 'y', 'z')],
+            [i for i, a in enumerate(names) if a in ('rx', 'ry', 'rz')])
+
+
+def push_figures(data, experiment):
+    """The response to a push on and off (the first two bridge events), along `experiment.response_axis`:
+    push_deflection_m (mean x - x_d over the steady_window before the release), push_other_axes_m (the
+    largest |mean x_d - x| over that window on the other translation axes: the static deflection) and
+    push_other_axes_peak_m (their largest |x_d - x| over the run: the transient of the coupled inertia),
+    push_rotation_max_rad (the largest norm of the rotation error over the run), push_return_overshoot
+    (the largest excursion past the target after the release, over the deflection)."""
+    if len(data.events) < 2:
+        return {}
+    on, off = data.events[0]['t_applied'], data.events[1]['t_applied']
+    e = data.motion_error()
+    trans, rot = _translation_rotation(data)
+    axis = data.motion_names.index(experiment.response_axis)
+    deflection = -e[:, axis]                             # x - x_d
+    held = data.window(off - experiment.steady_window, off)
+    d_push = float(np.mean(deflection[held]))
+    after = deflection[data.window(off)]
+    overshoot = max(0.0, float(np.max(-np.sign(d_push) * after))) / abs(d_push) if d_push else None
+    others = [i for i in trans if i != axis]
+    return {'push_deflection_m': d_push, 'push_other_axes_m': float(np.max(np.abs(np.mean(e[held][:, others], axis=0)))),
+            'push_other_axes_peak_m': float(np.max(np.abs(e[:, others]))),
+            'push_rotation_max_rad': float(np.max(np.linalg.norm(e[:, rot], axis=1))) if rot else None,
+            'push_return_overshoot': overshoot, 'push_on_s': on, 'push_off_s': off}
+
+
+def pose_figures(data, experiment):
+    """position_rms_m, orientation_rms_rad: RMS over the run of |x_d - x| and of the rotation error's norm."""
+    e = data.motion_error()
+    trans, rot = _translation_rotation(data)
+    return {'position_rms_m': float(rms(np.linalg.norm(e[:, trans], axis=1))),
+            'orientation_rms_rad': float(rms(np.linalg.norm(e[:, rot], axis=1)))}
+
+
+def orientation_figures(data, experiment):
+    """orientation_max_rad, orientation_rms_rad: the rotation error's norm over the run, largest and RMS."""
+    _, rot = _translation_rotation(data)
+    norm = np.linalg.norm(data.motion_error()[:, rot], axis=1)
+    return {'orientation_max_rad': float(np.max(norm)), 'orientation_rms_rad': float(rms(norm))}
+
+
+#: rad, the joint drift whose first crossing drift_figures times
+DRIFT_MARK = 1e-3
+
+
+def drift_figures(data, experiment):
+    """joint_drift_max_rad: the largest |q - q(0)| over the joints and the run; drift_1mrad_after_s: when it
+    first exceeded DRIFT_MARK (None: never); tip_drop_m: how far the tip went down over the run,
+    tip_displacement_m: how far it went (the scenario's model, m)."""
+    from robot_control import models, scenarios
+    model = models.for_scenario(scenarios.get(experiment.scenario))
+    p0, p1 = model.fk(data.q[0]), model.fk(data.q[-1])
+    drift = np.max(np.abs(data.q - data.q[0]), axis=1)
+    crossed = np.flatnonzero(drift > DRIFT_MARK)
+    return {'joint_drift_max_rad': float(np.max(drift)),
+            'drift_1mrad_after_s': float(data.t[crossed[0]] - data.t[0]) if crossed.size else None,
+            'tip_drop_m': float(p0[2] - p1[2]), 'tip_displacement_m': float(np.linalg.norm(p1 - p0))}
+
+
+#: Experiment.figures name -> fn(data, experiment) -> {figure: value (SI; the name ends with its unit)}
+FIGURES = {'push': push_figures, 'pose': pose_figures, 'orientation': orientation_figures, 'drift': drift_figures}
+
+
 def summarize(data, experiment, mode, duration, wall_time_s=None):
     """The summary.json dict of a run: the metrics of the module docstring plus the run's context."""
     motion_names, units = data.motion_names, data.motion_units
@@ -221,6 +292,9 @@ def summarize(data, experiment, mode, duration, wall_time_s=None):
             times = [settling_time(data.t[until], ef[until, i], experiment.settle_from) for i in range(ef.shape[1])]
             out['force_settling_time_s'] = None if any(s is None for s in times) else max(times)
         out['force_reference'] = _named(axes, f_d[-1])
+    out['figures'] = {}
+    for name in experiment.figures:
+        out['figures'].update(FIGURES[name](data, experiment))
     if data.effort_limit is not None:
         sat = np.abs(data.tau_cmd) >= data.effort_limit * (1.0 - 1e-9)
         out['saturated_ticks'] = int(np.count_nonzero(sat.any(axis=1)))

@@ -84,6 +84,11 @@ class Collector:
         cls = COLLECT[topic]
         return [(deserialize_message(d, cls), s, r) for d, s, r in self.raw[topic]]
 
+    def last_stamps_ns(self, topic, k):
+        """The stamps (ns) of the newest k messages of `topic`, oldest first (fewer when fewer came)."""
+        return [conversions.stamp_to_ns(deserialize_message(d, COLLECT[topic]).header.stamp)
+                for d, _, _ in self.raw[topic][-k:]]
+
     def last_stamp_ns(self, topic='/joint_states'):
         msg = self.latest(topic)
         return None if msg is None else conversions.stamp_to_ns(msg.header.stamp)
@@ -104,6 +109,7 @@ class RunControl:
         self.traj_pub = self.node.create_publisher(JointTrajectory, '/controller/joint_trajectory', REFERENCE_QOS)
         self.wrench_pub = self.node.create_publisher(WrenchStamped, '/controller/wrench_reference', REFERENCE_QOS)
         self.pause_client = self.node.create_client(SetBool, '/sim_bridge/pause')
+        self.bridge_params = None   # rclpy's AsyncParameterClient of /sim_bridge, made when first needed
         self.log = []    # (logger name, level, text) from /rosout
         self.node.create_subscription(Log, '/rosout', self._on_log, ROSOUT_QOS)
 
@@ -155,6 +161,20 @@ class RunControl:
         if result is None or not result.success:
             raise RuntimeError(f'/sim_bridge/pause({on}) failed: {None if result is None else result.message}')
         return result.message
+
+    def set_bridge_parameters(self, values, timeout=10.0, poll=None):
+        """Set run-time parameters of the bridge ({name: value}); RuntimeError naming a refused one."""
+        from rclpy.parameter import Parameter
+        if self.bridge_params is None:
+            from rclpy.parameter_client import AsyncParameterClient
+            self.bridge_params = AsyncParameterClient(self.node, 'sim_bridge')
+        self.spin_until(lambda: self.bridge_params.services_are_ready(), timeout, poll,
+                        'the parameter services of /sim_bridge')
+        future = self.bridge_params.set_parameters([Parameter(k, value=v) for k, v in values.items()])
+        self.spin_until(future.done, timeout, poll, '/sim_bridge to set its parameters')
+        for name, result in zip(values, future.result().results):
+            if not result.successful:
+                raise RuntimeError(f'/sim_bridge refused {name} = {values[name]!r}: {result.reason}')
 
     def controller_said(self, text, since=0):
         """Index of the first controller log line after `since` containing `text`, or None."""

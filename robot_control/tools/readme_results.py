@@ -54,7 +54,9 @@ REQUIRED = ('scenario', 'mode', 'duration_s', 'samples', 'rms_error', 'max_error
             'latency_p50_ms', 'latency_p99_ms')
 MAX_LISTED = 3   # coordinates listed one by one in a cell; more: the largest only
 COLUMNS = ('experiment', 'scenario', 'law', 'mode', 'sim time', 'RMS error', 'max error', 'steady-state error',
-           'settling time', 'force RMS error', 'saturated ticks', 'loop rate', 'latency p50 / p99')
+           'settling time', 'force RMS error', 'saturated ticks', 'loop rate', 'latency p50 / p99', 'figures')
+#: unit suffixes of the names of an experiment's own figures (summary 'figures'); a name without one is a ratio
+FIGURE_UNITS = ('m', 'rad', 's', 'N')
 
 
 def number(x, unit=''):
@@ -86,6 +88,17 @@ def per_coordinate(values, units=None, unit=''):
         name = max(finite, key=lambda k: abs(finite[k]))
         return f'max {number(finite[name], unit or units.get(name, ""))} ({name})'
     parts = [f'{name} {number(v, unit or units.get(name, ""))}' for name, v in values.items()]
+    return ', '.join(parts) if parts else '-'
+
+
+def figures(values):
+    """'push deflection -0.01 m, push return overshoot 0' from an experiment's own figures {name_unit: value}."""
+    parts = []
+    for name, value in (values or {}).items():
+        label, _, unit = name.rpartition('_')
+        if unit not in FIGURE_UNITS:
+            label, unit = name, ''
+        parts.append(f'{label.replace("_", " ")} {number(value, unit)}')
     return ', '.join(parts) if parts else '-'
 
 
@@ -126,7 +139,7 @@ def row(name, s):
     cells = (label, s['scenario'], s.get('law', '-'), s['mode'], number(s['duration_s'], 's'),
              per_coordinate(s['rms_error'], units), per_coordinate(s['max_error'], units),
              per_coordinate(s['steady_state_error'], units), number(s['settling_time_s'], 's'),
-             force, number(s['saturated_ticks']), number(s['loop_rate_hz'], 'Hz'), latency)
+             force, number(s['saturated_ticks']), number(s['loop_rate_hz'], 'Hz'), latency, figures(s.get('figures')))
     return '| ' + ' | '.join(str(c).replace('|', '\\|') for c in cells) + ' |'
 
 

@@ -15,6 +15,12 @@ Figures checked (the issue's):
    joint-space point-to-point ends within 1e-3 rad without saturating; hybrid on the table (iiwa, Panda):
    10 N with force error < 5 % while drawing a 10 cm line with path error < 2 mm.
 8. mass_spring_cubic tracks a sine with the partitioned law.
+9. Beyond the lecture, on the iiwa: Cartesian impedance (K = 1000 N/m, 100 N m/rad) under a 10 N push along
+   -z set on the bridge at run time deflects the tip 10 mm within 5 %, the other axes < 0.5 mm, the
+   orientation < 5 mrad, and it returns without overshoot beyond 2 %; the impedance law tracks a 10 cm
+   circle with a 20 degree wrist rotation within 2 mm and 10 mrad RMS; gravity compensation holding 2 kg on
+   the tip drifts < 1 mrad over 3 s with the payload configured and sags without it; hybrid control in the
+   pose task space presses 10 N on the table while drawing a line with the tool vertical (< 10 mrad).
 Repeated runs give identical numbers; the recorded bag of one run is checked with rosbags.
 """
 import math
@@ -48,6 +54,11 @@ RUNS = {
     'panda_line': ('panda_hybrid_line', dict(duration=3.5)),
     'ur5_ptp': ('ur5_ptp', dict(duration=2.7)),
     'sine': ('mass_spring_sine', dict(duration=2.5)),
+    'push': ('impedance_push', dict(duration=3.5)),
+    'pose': ('pose_tracking', dict(duration=3.8)),
+    'payload_known': ('payload_compensated', dict(duration=3.0)),
+    'payload_bare': ('payload_unmodelled', dict(duration=3.0)),
+    'iiwa_vertical': ('iiwa_hybrid_vertical', dict(duration=3.5)),
 }
 
 
@@ -273,6 +284,84 @@ def test_mass_spring_cubic_tracks_a_sine(runs):
     assert amplitude > 0.3
     assert s['rms_error']['x'] < 1e-3 * amplitude * 2.5    # < 1 mm for the 0.4 m sine
     assert s['max_error']['x'] < 2e-3
+
+
+# -- 9. beyond the lecture: impedance, pose targets, a payload ---------------------------------------------
+def test_impedance_push_deflects_the_tip_by_force_over_stiffness(runs):
+    """Static deflection K^-1 F along the push; the other translation axes hold still in the steady state
+    (while the push comes and goes they move transiently: the operational-space inertia couples them, and
+    the law keeps it); no overshoot on the way back."""
+    result = runs.get('push')
+    s = result.summary
+    _complete(result)
+    exp = exps.get('impedance_push')
+    fig = s['figures']
+    expected = -exps.PUSH / exp.controller['cartesian_stiffness'][2]
+    (on, off) = [event['t_applied'] for event in s['bridge_events']]
+    print(f'impedance push {exps.PUSH} N on at {on:.3f} s, off at {off:.3f} s: deflection '
+          f'{fig["push_deflection_m"] * 1e3:.4f} mm (K^-1 F = {expected * 1e3:.1f} mm), other axes '
+          f'{fig["push_other_axes_m"] * 1e3:.2g} mm (peak {fig["push_other_axes_peak_m"] * 1e3:.3f} mm), rotation max '
+          f'{fig["push_rotation_max_rad"] * 1e3:.3f} mrad, overshoot on return {fig["push_return_overshoot"]:.2%}')
+    assert [e['t'] for e in s['bridge_events']] == [t for t, _ in exp.bridge_events]
+    assert 0.0 <= on - 0.5 < 0.02 and 0.0 <= off - 2.0 < 0.02
+    assert abs(fig['push_deflection_m'] - expected) <= 0.05 * abs(expected)
+    assert fig['push_other_axes_m'] < 0.5e-3
+    assert fig['push_rotation_max_rad'] < 5e-3
+    assert fig['push_return_overshoot'] < 0.02
+    assert max(s['final_error'].values()) < 1e-4           # back at the start pose
+
+
+def test_impedance_tracks_a_circle_with_a_wrist_rotation(runs):
+    import pinocchio as pin
+    result = runs.get('pose')
+    d, fig = result.data, result.summary['figures']
+    _complete(result)
+    names = list(d.ref_names)
+    xyz = d.ref_pos[:, [names.index(a) for a in ('x', 'y', 'z')]]
+    rot = d.ref_pos[:, [names.index(a) for a in ('rx', 'ry', 'rz')]]
+    turned = max(np.linalg.norm(pin.log3(pin.exp3(r) @ pin.exp3(rot[0]).T)) for r in rot)
+    print(f'pose tracking: circle {np.ptp(xyz[:, 0]) * 1e3:.1f} x {np.ptp(xyz[:, 1]) * 1e3:.1f} mm, wrist turned up to '
+          f'{math.degrees(turned):.2f} degrees; RMS error {fig["position_rms_m"] * 1e3:.4f} mm, '
+          f'{fig["orientation_rms_rad"] * 1e3:.4f} mrad')
+    assert np.allclose(np.ptp(xyz[:, :2], axis=0), 2 * exps.IIWA_CIRCLE, rtol=1e-3)
+    assert abs(turned - exps.IIWA_WRIST) < 1e-3
+    assert fig['position_rms_m'] < 2e-3 and fig['orientation_rms_rad'] < 10e-3
+    assert result.summary['saturated_ticks'] == 0
+
+
+def test_gravity_compensation_holds_a_configured_payload_and_sags_without_it(runs):
+    known, bare = runs.get('payload_known'), runs.get('payload_bare')
+    _complete(known), _complete(bare)
+    k, b = known.summary['figures'], bare.summary['figures']
+    print(f'2 kg payload, gravity compensation over 3 s: configured: drift {k["joint_drift_max_rad"]:.3g} rad, tip '
+          f'{k["tip_displacement_m"] * 1e3:.3g} mm; not configured: drift {b["joint_drift_max_rad"]:.3g} rad (1 mrad '
+          f'after {b["drift_1mrad_after_s"]:.3f} s), the tip {b["tip_drop_m"] * 1e3:.0f} mm lower')
+    assert k['joint_drift_max_rad'] < 1e-3 and k['drift_1mrad_after_s'] is None
+    assert b['joint_drift_max_rad'] > 0.1 and b['tip_drop_m'] > 0.05
+
+
+def test_hybrid_in_the_pose_space_holds_the_tool_vertical_while_pressing(runs):
+    """10 N on the table while the line is drawn; the orientation error (the law's, on SO(3)) and the tool's
+    tilt from the vertical (its z axis against world -z, from the measured joints) stay < 10 mrad."""
+    result = runs.get('iiwa_vertical')
+    d, s = result.data, result.summary
+    _complete(result)
+    exp = exps.get('iiwa_hybrid_vertical')
+    f_d = abs(exp.force[0])
+    ef = (d.force_reference() - d.force_measured())[d.window(exp.force_window), 0]
+    model = exps.IIWA_LINE.model('pose')
+    import pinocchio as pin
+    tilt = [math.acos(np.clip(-pin.exp3(model.fk(q)[3:])[2, 2], -1.0, 1.0)) for q in d.q[::10]]
+    names = list(d.motion_names)
+    path = np.linalg.norm(d.motion_error()[:, [names.index('x'), names.index('y')]], axis=1)
+    print(f'iiwa hybrid, pose task space: force error after {exp.force_window} s max {np.nanmax(np.abs(ef)):.3g} N; '
+          f'orientation error max {s["figures"]["orientation_max_rad"] * 1e3:.4f} mrad, tool tilt max '
+          f'{max(tilt) * 1e3:.4f} mrad; path error max {path.max() * 1e3:.4f} mm; y travelled '
+          f'{np.ptp(d.ref_pos[:, d.ref_names.index("y")]) * 1e3:.1f} mm')
+    assert np.nanmax(np.abs(ef)) < 0.05 * f_d
+    assert s['figures']['orientation_max_rad'] < 10e-3 and max(tilt) < 10e-3
+    assert path.max() < 2e-3
+    assert np.ptp(d.ref_pos[:, d.ref_names.index('y')]) > 0.99 * exps.IIWA_LINE
 
 
 # -- repeatability ----------------------------------------------------------------------------------------

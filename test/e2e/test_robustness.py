@@ -1,21 +1,22 @@
 """Robustness and safety: nothing unsafe is ever commanded, whatever fails or arrives.
 
 End-to-end items run the bridge and the controller as separate processes (`python -m ...`)
-over Fast DDS on loopback, each test on its own ROS_DOMAIN_ID (81..92), with a monitoring node
+over Fast DDS on loopback, each test on its own ROS_DOMAIN_ID (81..92; the impedance rig claims one of the
+end-to-end pool 71..80), with a monitoring node
 in the test process; waits are bounded by deadlines, every child is stopped by its pid.
 
 | item | how | domain |
 |---|---|---|
 | 1 controller SIGKILL, restart | processes, realtime bridge | 81 |
 | 2 bridge SIGKILL, restart | processes, realtime bridge | 82 |
-| 3 bad messages, >= 2,000 per topic | hypothesis; node classes in-process over DDS (exact accounting), then the same messages replayed against the processes | 83, 91 (controller rigs), 84, 92 (bridge rigs), 85 (replay) |
+| 3 bad messages, >= 2,000 per topic | hypothesis; node classes in-process over DDS (exact accounting), then the same messages replayed against the processes (the topics of the lecture's laws) | 83, 91 (controller rigs), one claimed from the end-to-end pool 71-80 (impedance rig: target_pose, target_wrench), 84, 92 (bridge rigs), 85 (replay) |
 | 4 joint_states flood | flood process (up to 20 kHz, 5 s) against the controller process | 86 |
 | 5 invalid parameters | start-up: processes; run time: parameter services over DDS | 87 |
 | 6 two command publishers | processes + a second publisher here | 88 |
 | 7 lost contact (hybrid) | library ContactGuard (robot_control.core.contact) + processes without the surface | 89 |
 | 8 saturated step, anti-windup | library closed loops (every law) + lockstep processes | 90 |
 
-Sizes (runtime on 2 cores): 2,000 hypothesis examples per subscribed topic (6 topics), each one
+Sizes (runtime on 2 cores): 2,000 hypothesis examples per subscribed topic (8 topics), each one
 published and accounted for; flood 5 s; motions of 1.5-3 s of simulated time.
 The figures of the README table are written to out/robustness/summary.json (and .md) and printed
 at the end of the module.
@@ -657,7 +658,7 @@ class ControllerRig:
     """ControllerNode + a fuzzing node in one executor on a fresh context; valid_state() is the oracle's probe."""
 
     def __init__(self, dom, joints, q_hold, params, f_hold=None):
-        from geometry_msgs.msg import WrenchStamped
+        from geometry_msgs.msg import PoseStamped, WrenchStamped
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
         from rclpy.parameter import Parameter
@@ -669,6 +670,7 @@ class ControllerRig:
         self.ctx = rclpy.Context()
         rclpy.init(context=self.ctx, domain_id=dom)
         self.joints, self.q_hold, self.f_hold = tuple(joints), np.asarray(q_hold, float), f_hold
+        self.limit = np.full(len(self.joints), 200.0)      # the rigs' effort_limits
         self.ex = SingleThreadedExecutor(context=self.ctx)
         self.node = self.fuzzer = None
         try:
@@ -680,12 +682,16 @@ class ControllerRig:
                                                                REFERENCE_QOS),
                         'wrench_reference': f.create_publisher(WrenchStamped, 'controller/wrench_reference',
                                                                REFERENCE_QOS),
-                        'ft_sensor_wrench': f.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_QOS)}
+                        'ft_sensor_wrench': f.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_QOS),
+                        'target_pose': f.create_publisher(PoseStamped, 'controller/target_pose', REFERENCE_QOS),
+                        'target_wrench': f.create_publisher(WrenchStamped, 'controller/target_wrench',
+                                                            REFERENCE_QOS)}
             self.commands = {}
             f.create_subscription(JointState, 'robot_joint_commands', self._on_command, rh._qos(100))
             self.ex.add_node(self.node)
             self.ex.add_node(f)
-            needed = [self.pub['joint_states'], self.pub['joint_trajectory']] + (
+            needed = [self.pub['joint_states'], self.pub['joint_trajectory'], self.pub['target_pose'],
+                      self.pub['target_wrench']] + (
                 [self.pub['wrench_reference'], self.pub['ft_sensor_wrench']] if f_hold is not None else [])
             assert spin_until(self.ex, lambda: all(p.get_subscription_count() >= 1 for p in needed)
                               and f.count_publishers('/robot_joint_commands') >= 1, 10.0)
@@ -754,11 +760,29 @@ def hybrid_rig():
     rig.close()
 
 
+@pytest.fixture(scope='module')
+def impedance_rig():
+    """Cartesian impedance on the iiwa in the pose task space, holding IIWA_POSTURE: the law that takes
+    ~/target_pose and ~/target_wrench (a domain claimed from the end-to-end pool: the fixed ids are taken)."""
+    from e2e_helpers import E2E_DOMAINS
+    from robot_control import scenarios
+    from robot_control.tools.demo_experiments import IIWA_POSTURE
+    from robot_control.tools.demo_procs import DomainClaim
+    with DomainClaim(E2E_DOMAINS, start=9) as claim:
+        rig = ControllerRig(claim.domain_id, scenarios.get('iiwa').joints, IIWA_POSTURE,
+                            dict(scenario='iiwa', law='impedance', task_space='pose', effort_limits=[200.0] * 7,
+                                 diagnostics_period=5.0))
+        try:
+            yield rig
+        finally:
+            rig.close()
+
+
 def _assert_recovered(rig, bad):
     """After the bad message, a valid state at rest gets a safe command close to the holding torque."""
     tau = rig.valid_state()
-    assert np.all(np.isfinite(tau)) and np.all(np.abs(tau) <= LIMIT), (tau, bad)
-    assert np.all(np.abs(tau - rig.tau_hold) <= 0.25 * LIMIT), \
+    assert np.all(np.isfinite(tau)) and np.all(np.abs(tau) <= rig.limit), (tau, bad)
+    assert np.all(np.abs(tau - rig.tau_hold) <= 0.25 * rig.limit), \
         f'after {bad!r} a valid rest state gets {tau} instead of about {rig.tau_hold}: the bad input lingers'
 
 
@@ -770,7 +794,7 @@ def _assert_rejected(rig, source, bad, fields):
 
 def _fuzz_figures(topic, rig):
     efforts = np.array(list(rig.commands.values()))
-    checked, unsafe = record_efforts(efforts)
+    checked, unsafe = record_efforts(efforts, rig.limit)
     TALLY.inputs(f'controller {topic}', len(FUZZ_RECORD.get(topic, ())))
     return checked, unsafe
 
@@ -837,9 +861,60 @@ def test_fuzz_controller_ft_sensor_wrench(hybrid_rig, bad):
     _fuzz_wrench(hybrid_rig, 'ft_sensor_wrench', bad)
 
 
+def _fuzz_target(rig, topic, bad, msg, accepted, reset):
+    """Publish a bad target (`msg`): exactly one rejection naming the field, or (not a must-reject case) one
+    acceptance (`accepted()` counts them) answered by a finite command within the limits; then `reset` (a valid
+    target back to holding) and the controller recovers."""
+    FUZZ_RECORD.setdefault(topic, []).append(bad)
+    before = (rig.node.rejected[topic], accepted())
+    rig.pub[topic].publish(msg)
+    assert spin_until(rig.ex, lambda: (rig.node.rejected[topic], accepted()) != before, 5.0), \
+        f'neither accepted nor rejected: {bad!r}'
+    rejected, took = rig.node.rejected[topic] - before[0], accepted() - before[1]
+    assert (rejected, took) in ((1, 0), (0, 1)), (rejected, took, bad)
+    if bad.must_reject:
+        assert rejected == 1, f'accepted {bad!r}'
+    if rejected:
+        _assert_rejected(rig, topic, bad, ('header', 'pose', 'wrench'))
+        assert bad.must_reject, f'refused {bad!r}: {rig.node.last_rejection}'
+    else:
+        tau = rig.valid_state()
+        assert np.all(np.isfinite(tau)) and np.all(np.abs(tau) <= rig.limit), (tau, bad)
+        count = accepted()
+        rig.pub[topic].publish(reset)
+        assert spin_until(rig.ex, lambda: accepted() == count + 1, 5.0), 'the reset target was not taken'
+    _assert_recovered(rig, bad)
+
+
+@FUZZ
+@given(bad=rh.target_poses('lbr_iiwa_link_0'))
+def test_fuzz_controller_target_pose(impedance_rig, bad):
+    """NaN poses, non-unit quaternions (normalised within norms 0.5..2, refused beyond with the reason), frames
+    other than the base (refused): nothing unsafe is commanded, and a target of the start pose restores the hold."""
+    from robot_control.ros import conversions
+    rig = impedance_rig
+    model = rig.node.core.config.model
+    position, quaternion = model.task_pose(model.fk(rig.q_hold))
+    reset = conversions.pose_stamped(position, quaternion)
+    _fuzz_target(rig, 'target_pose', bad, rh.pose_msg(bad, rig.stamp), lambda: rig.node.counters.target_poses_accepted,
+                 reset)
+
+
+@FUZZ
+@given(bad=rh.target_wrenches('lbr_iiwa_link_0'))
+def test_fuzz_controller_target_wrench(impedance_rig, bad):
+    """Non-finite or huge feed-forward wrenches and frames other than the base are refused; an accepted one is
+    answered safely and a zero wrench restores the hold."""
+    rig = impedance_rig
+    zero = rh.wrench_msg(rh.Bad('ok', False, force=[0.0] * 3, torque=[0.0] * 3, stamp=(0, 0), frame_id=''), 0)
+    _fuzz_target(rig, 'target_wrench', bad, rh.wrench_msg(bad, rig.stamp),
+                 lambda: rig.node.counters.target_wrenches_accepted, zero)
+
+
 @pytest.mark.parametrize('topic, rig_name', [('joint_states', 'polar_rig'), ('joint_trajectory', 'polar_rig'),
                                              ('wrench_reference', 'hybrid_rig'),
-                                             ('ft_sensor_wrench', 'hybrid_rig')])
+                                             ('ft_sensor_wrench', 'hybrid_rig'),
+                                             ('target_pose', 'impedance_rig'), ('target_wrench', 'impedance_rig')])
 def test_fuzz_controller_figures(topic, rig_name, request):
     """Each controller topic got >= 2,000 bad messages; every command published was finite and within limits;
     the rejections are counted per topic on /diagnostics with the last reason."""

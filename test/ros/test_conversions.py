@@ -259,3 +259,25 @@ def test_diagnostic_round_trip():
     assert values == {'trips': '2', 'timeout_s': '0.5', 'limit': 'inf'}
     array = cv.diagnostic_array([status], 1_500_000_000)
     assert cv.stamp_to_ns(array.header.stamp) == 1_500_000_000 and array.status[0] is status
+
+
+def test_pose_target_normalises_a_near_unit_quaternion_and_refuses_the_rest():
+    """A quaternion of norm 0.5..2 is normalised; norm 0, 3 or NaN and a frame other than the base are refused
+    naming the field; '' counts as the base frame."""
+    msg = cv.pose_stamped([0.5, 0.0, 0.4], [0.0, 0.0, 0.0, 1.5], frame_id='base')
+    position, quat = cv.pose_target(msg, 'base')
+    assert position.tolist() == [0.5, 0.0, 0.4] and quat.tolist() == [0.0, 0.0, 0.0, 1.0]
+    assert cv.pose_target(cv.pose_stamped([0.5, 0.0, 0.4], [0.0, 0.0, 0.6, 0.0]), 'base')[1].tolist() == [0, 0, 1, 0]
+    for bad in ([0.0] * 4, [0.0, 0.0, 0.0, 3.0], [math.nan, 0.0, 0.0, 1.0]):
+        with pytest.raises(ValueError, match='^pose.orientation: not a rotation'):
+            cv.pose_target(cv.pose_stamped([0.5, 0.0, 0.4], bad), 'base')
+    with pytest.raises(ValueError, match='^pose.position'):
+        cv.pose_target(cv.pose_stamped([math.inf, 0.0, 0.4]), 'base')
+    for frame in ('world', 'base ', 'tool'):
+        with pytest.raises(ValueError, match="^header.frame_id: expected the model's base frame 'base'"):
+            cv.pose_target(cv.pose_stamped([0.5, 0.0, 0.4], frame_id=frame), 'base')
+    wrench = cv.wrench_along(('z',), (5.0,))
+    wrench.header.frame_id = 'world'
+    cv.check_base_frame(wrench, 'world')
+    with pytest.raises(ValueError, match='^header.frame_id'):
+        cv.check_base_frame(wrench, 'base')

@@ -19,10 +19,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 #: the keys every results.json carries (the README table and the targets read them)
 KEYS = (
     'law_us_ct_2dof_median', 'law_us_ct_2dof_p99', 'law_us_ct_7dof_median', 'law_us_hybrid_7dof_median',
+    'law_us_impedance_7dof_median',
     'mr_ct_7dof_us_median', 'pin_rnea_us_median', 'speedup_vs_modern_robotics',
     'lockstep_steps_per_s_polar', 'lockstep_steps_per_s_iiwa', 'pingpong_roundtrips_per_s',
     'lockstep_vs_pingpong_ratio',
     'realtime_1khz_deadline_hit_ratio', 'realtime_latency_p50_ms', 'realtime_latency_p99_ms', 'realtime_rtf',
+    *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance')
+      for metric in ('1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
     'sim_steps_per_s_iiwa',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
 )
@@ -104,3 +107,20 @@ def test_header_stamp_read_from_a_serialized_joint_state():
     msg.header.stamp.sec, msg.header.stamp.nanosec = 12, 345_000_000
     msg.name = ['a']
     assert header_stamp_ns(serialize_message(msg)) == 12_345_000_000
+
+
+def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
+    """B3 runs the iiwa under hybrid control on the table and under impedance with the parameters of the
+    demo's iiwa_hybrid_line and impedance_push; each run's figures are held to B3's targets."""
+    from robot_control.tools import bench, bench_ros, demo_experiments
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime', 'iiwa_hybrid_line')
+    start = demo_experiments.get('iiwa_hybrid_line').bridge['initial_positions']
+    assert 'law:=hybrid' in controller and 'f_d:=[-10.0]' in controller
+    assert f'initial_positions:={[float(v) for v in start]}' in bridge and bridge[-1] == 'real_time_factor:=1.0'
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime', 'impedance_push')
+    assert 'law:=impedance' in controller and 'task_space:=pose' in controller and 'surface.enable:=false' in bridge
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime')
+    assert not any(a.startswith('law:=') for a in controller)
+    for run in bench_ros.REALTIME_RUNS:
+        assert bench.TARGETS[f'realtime_rtf_{run}'] == bench.TARGETS['realtime_rtf']
+    assert bench.verdict('law_us_impedance_7dof_median', 61.0).startswith('MISSED')

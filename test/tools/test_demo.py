@@ -308,6 +308,34 @@ def test_hybrid_line_references_keep_the_tip_on_the_table(name, line):
     assert np.all((np.array(exp.trajectory.positions) > lower) & (np.array(exp.trajectory.positions) < upper))
 
 
+def test_iiwa_pose_references_hold_the_tool_vertical_and_turn_the_wrist_on_the_circle():
+    """The pose-space references: the line keeps the tool at IIWA_DOWN on the table; the circle has radius
+    IIWA_CIRCLE and turns the wrist out to IIWA_WRIST about world z; the velocities are the positions'
+    derivatives (J qd matches the task path's central difference)."""
+    import pinocchio as pin
+    model = demo_experiments.IIWA_LINE.model('pose')
+    line = demo_experiments.get('iiwa_hybrid_vertical')
+    down = pin.exp3(np.array(demo_experiments.IIWA_DOWN))
+    for q in (line.bridge['initial_positions'], *line.trajectory.positions):
+        x = model.fk(np.array(q))
+        assert x[2] == pytest.approx(demo_experiments.IIWA_LINE.z, abs=1e-9)
+        assert np.linalg.norm(pin.log3(pin.exp3(x[3:]) @ down.T)) < 1e-9
+    spec = demo_experiments.get('pose_tracking').trajectory
+    x = np.array([model.fk(np.array(q)) for q in spec.positions])
+    start = model.fk(np.array(demo_experiments.IIWA_POSTURE))
+    centre = start[:3] - (demo_experiments.IIWA_CIRCLE, 0.0, 0.0)
+    assert np.allclose(np.linalg.norm(x[:, :3] - centre, axis=1), demo_experiments.IIWA_CIRCLE, atol=1e-9)
+    assert np.allclose(x[:, 2], start[2], atol=1e-9) and np.allclose(x[-1], start, atol=1e-9)
+    turns = [pin.log3(pin.exp3(r) @ pin.exp3(start[3:]).T) for r in x[:, 3:]]
+    assert np.allclose(np.array(turns)[:, :2], 0.0, atol=1e-9)
+    assert max(t[2] for t in turns) == pytest.approx(demo_experiments.IIWA_WRIST, abs=1e-6)
+    dt = spec.times[1] - spec.times[0]
+    for k in range(1, len(spec.times) - 1, 25):
+        q, qd = np.array(spec.positions[k]), np.array(spec.velocities[k])
+        rate = model.task_difference(x[k + 1], x[k - 1]) / (2 * dt)
+        assert np.allclose(model.J(q) @ qd, rate, atol=2e-3 * max(1.0, np.abs(rate).max()))
+
+
 def test_settling_time_of_the_critically_damped_step():
     t = np.arange(0.0, 3.0, 0.001)
     e = demo_metrics.critically_damped(t, 0.5, 6.0)
@@ -347,6 +375,70 @@ def test_summary_metrics_on_a_synthetic_run():
     assert 'theta1' in text and 'rad' in text and 'saturated ticks' in text
 
 
+def test_push_figures_on_a_synthetic_response():
+    """A 10 mm step down along z while pushed, back with an overshoot of 0.1 mm (0.5-1 s after the release);
+    x moves 1 mm during the push's onset only; a rotation error of 2 mrad."""
+    exp = demo_experiments.get('impedance_push')
+    t = np.arange(0, 3501) * 0.001
+    on, off = 0.502, 2.003
+    dz = np.where((t >= on) & (t < off), -0.01 * (1 - np.exp(-(t - on) * 30)), 0.0)
+    dz = np.where(t >= off, -0.01 * np.exp(-(t - off) * 30) + 1e-4 * np.sin(np.pi * np.clip(t - off - 0.5, 0, 0.5) / 0.5),
+                  dz)
+    e = np.zeros((t.size, 6))
+    e[:, 2] = -dz
+    e[:, 0] = np.where((t > on) & (t < on + 0.1), 1e-3, 0.0)
+    e[:, 4] = np.where((t > on) & (t < on + 0.1), 2e-3, 0.0)
+    run = demo_metrics.RunData(
+        t=t, joints=('a',), joint_units=('rad',), q=np.zeros((t.size, 1)), qd=np.zeros((t.size, 1)),
+        tau_applied=np.zeros((t.size, 1)), tau_cmd=np.zeros((t.size, 1)), ref_names=('x', 'y', 'z', 'rx', 'ry', 'rz'),
+        ref_pos=np.zeros_like(e), ref_vel=np.zeros_like(e), ref_acc=np.zeros_like(e), err_pos=e,
+        err_vel=np.zeros_like(e), force_xyz=np.zeros((t.size, 3)), force_axes=(), force_axis_index=(), law='impedance')
+    run.events = [{'t': 0.5, 't_applied': on, 'parameters': {}}, {'t': 2.0, 't_applied': off, 'parameters': {}}]
+    fig = demo_metrics.summarize(run, exp, 'lockstep', 3.5)['figures']
+    assert fig['push_deflection_m'] == pytest.approx(-0.01, rel=1e-6)
+    assert fig['push_other_axes_m'] == 0.0 and fig['push_other_axes_peak_m'] == pytest.approx(1e-3)
+    assert fig['push_rotation_max_rad'] == pytest.approx(2e-3)
+    assert fig['push_return_overshoot'] == pytest.approx(0.01, rel=1e-3)
+    assert (fig['push_on_s'], fig['push_off_s']) == (on, off)
+    run.events = []                 # no push recorded: no figures
+    assert demo_metrics.summarize(run, exp, 'lockstep', 3.5)['figures'] == {}
+
+
+class _FakeLive:
+    """A LiveRun's side the bridge schedule uses: it records the calls."""
+
+    def __init__(self):
+        self.calls = []
+        self.control = self
+
+    def pause(self):
+        self.calls.append('pause')
+
+    def paused_at(self):
+        self.calls.append('paused_at')
+        return 1_000_000_000 + 503_000_000
+
+    def set_bridge_parameters(self, values, poll=None):
+        self.calls.append(('set', values))
+
+    def resume(self):
+        self.calls.append('resume')
+
+    def alive(self):
+        pass
+
+
+def test_bridge_parameter_changes_pause_set_and_resume_when_due():
+    push = {'disturbance.cartesian_force': [0.0, 0.0, -10.0]}
+    schedule = demo.BridgeSchedule(((2.0, {}), (0.5, push)), 1_000_000_000, lambda *a, **k: None)
+    live = _FakeLive()
+    schedule.send_due(live, 1_000_000_000 + 499_000_000)
+    assert live.calls == [] and schedule.applied == []
+    schedule.send_due(live, 1_000_000_000 + 501_000_000)
+    assert live.calls == ['pause', 'paused_at', ('set', push), 'resume']
+    assert schedule.applied == [{'t': 0.5, 't_applied': 0.503, 'parameters': push}]
+
+
 # -- the README results table ----------------------------------------------------------------------------
 def _write_summary(base, name, **extra):
     s = {'scenario': 'polar_two_link', 'experiment': name, 'mode': 'lockstep', 'law': 'computed_torque',
@@ -384,6 +476,12 @@ def test_readme_results_table_is_generated_between_the_markers(tmp_path):
     assert readme_results.main(['--readme', str(readme), '--results', str(results), '--check']) == 0
     assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
     assert readme.read_text() == text                               # idempotent
+    assert rows[0].endswith(' | - |')                                  # no figures of its own
+    _write_summary(results, 'impedance_push', figures={'push_deflection_m': -0.01, 'push_return_overshoot': 0.0,
+                                                      'push_rotation_max_rad': 5.2e-4})
+    assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
+    [push] = [line for line in readme.read_text().splitlines() if line.startswith('| impedance_push')]
+    assert push.endswith(' | push deflection -0.01 m, push return overshoot 0, push rotation max 5.20e-04 rad |')
 
 
 def test_readme_results_refuses_a_readme_without_markers_and_bad_summaries(tmp_path):
