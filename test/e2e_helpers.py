@@ -120,11 +120,14 @@ class Lockstep:
         return self.live.control
 
     def advance(self, t):
-        """Resume, run until the command of the tick at t s (simulation time) has arrived, pause."""
+        """Resume, run until the command of the tick at t s (simulation time) has arrived, pause; returns the
+        time (s) of the state the paused bridge holds, t or a few ticks later (the pause takes a service call,
+        while lockstep runs on)."""
         self.live.resume()
-        self.live.run_until(int(round(t * demo.NS)), demo.ForceSchedule((), (), 0, None),
+        self.live.run_until(int(round(t * demo.NS)), (),
                             demo.Progress(self.live.collector, 0, {}, (), None))
         self.live.pause()
+        return self.live.paused_at() / demo.NS
 
     def send_trajectory(self, joints, times, positions, velocities=None, accelerations=None, stamp_ns=0):
         """Publish a JointTrajectory on /controller/joint_trajectory; wait until the controller logs that it

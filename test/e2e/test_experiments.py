@@ -361,7 +361,7 @@ def test_hybrid_in_the_pose_space_holds_the_tool_vertical_while_pressing(runs):
     assert np.nanmax(np.abs(ef)) < 0.05 * f_d
     assert s['figures']['orientation_max_rad'] < 10e-3 and max(tilt) < 10e-3
     assert path.max() < 2e-3
-    assert np.ptp(d.ref_pos[:, d.ref_names.index('y')]) > 0.99 * exps.IIWA_LINE
+    assert np.ptp(d.ref_pos[:, d.ref_names.index('y')]) > 0.99 * exps.IIWA_LINE.length
 
 
 # -- repeatability ----------------------------------------------------------------------------------------
