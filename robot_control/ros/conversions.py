@@ -385,7 +385,8 @@ def pose_target(msg, base_frame):
     if not (np.isfinite(position).all() and _plausible(position)):
         raise ArgumentError('pose.position', f'expected finite values within {MAX_ABS:g} m, got {position.tolist()}')
     quat = np.array([o.x, o.y, o.z, o.w])
-    norm = float(np.linalg.norm(quat)) if np.isfinite(quat).all() else float('nan')
+    # entries beyond 2 make the norm exceed QUATERNION_NORM anyway: refused before they could overflow
+    norm = float(np.linalg.norm(quat)) if np.isfinite(quat).all() and np.abs(quat).max() <= 2.0 else float('nan')
     if not QUATERNION_NORM[0] <= norm <= QUATERNION_NORM[1]:
         raise ArgumentError('pose.orientation', f'not a rotation: quaternion {quat.tolist()} of norm {norm:g}')
     return position, quat / norm

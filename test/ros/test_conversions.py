@@ -1,5 +1,6 @@
 """Message <-> array conversions: round trips, joints by name, and every rejection reason."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -268,9 +269,11 @@ def test_pose_target_normalises_a_near_unit_quaternion_and_refuses_the_rest():
     position, quat = cv.pose_target(msg, 'base')
     assert position.tolist() == [0.5, 0.0, 0.4] and quat.tolist() == [0.0, 0.0, 0.0, 1.0]
     assert cv.pose_target(cv.pose_stamped([0.5, 0.0, 0.4], [0.0, 0.0, 0.6, 0.0]), 'base')[1].tolist() == [0, 0, 1, 0]
-    for bad in ([0.0] * 4, [0.0, 0.0, 0.0, 3.0], [math.nan, 0.0, 0.0, 1.0]):
-        with pytest.raises(ValueError, match='^pose.orientation: not a rotation'):
-            cv.pose_target(cv.pose_stamped([0.5, 0.0, 0.4], bad), 'base')
+    for bad in ([0.0] * 4, [0.0, 0.0, 0.0, 3.0], [math.nan, 0.0, 0.0, 1.0], [1e300, 1e300, 0.0, 1.0]):
+        with warnings.catch_warnings():
+            warnings.simplefilter('error')      # refused without an overflow on the way
+            with pytest.raises(ValueError, match='^pose.orientation: not a rotation'):
+                cv.pose_target(cv.pose_stamped([0.5, 0.0, 0.4], bad), 'base')
     with pytest.raises(ValueError, match='^pose.position'):
         cv.pose_target(cv.pose_stamped([math.inf, 0.0, 0.4]), 'base')
     for frame in ('world', 'base ', 'tool'):
