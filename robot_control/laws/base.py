@@ -12,6 +12,8 @@ needs, so that nothing else has to know the law by its name:
   uses_force        it reads the force reference and the measured force on the force axes.
   torque_gains      its designed gains are torques (N m/rad ...), not accelerations: the parameter
                     layer scales the designed kp, kv, ki by the joint inertia M_ii(q0).
+  motion_servo      it has the joint-space motion servo (kp, kv, ki per joint, an integral per joint);
+                    False: no motion-servo gains and, unless integral_dim says otherwise, no integral.
 
 An instance is made for one ControllerConfig: its constructor checks what the law needs of the
 configuration (ArgumentError naming the field) and keeps what the tick reads.
@@ -49,6 +51,7 @@ class Law:
     needs_task_space = False
     uses_force = False
     torque_gains = False
+    motion_servo = True
 
     def __init__(self, config):
         self.config = config
@@ -62,13 +65,14 @@ class Law:
     @classmethod
     def servo_sizes(cls, model, force_axes):
         """The numbers of motion-servo gains (kp, kv, ki each) the law accepts, the designed one first
-        (empty: no motion servo): one per joint by default."""
-        return (model.n,)
+        (empty: no motion servo): one per joint when the law has the motion servo."""
+        return (model.n,) if cls.motion_servo else ()
 
     @property
     def integral_dim(self):
-        """Entries of the error integral (0: the law has no integral action)."""
-        return self.model.n
+        """Entries of the error integral (0: the law has no integral action): one per joint with the
+        motion servo."""
+        return self.model.n if self.motion_servo else 0
 
     @property
     def reference_names(self):

@@ -67,6 +67,7 @@ class Force(Law):
     tracks = 'task'
     needs_task_space = True
     uses_force = True
+    motion_servo = False
 
     def __init__(self, config):
         super().__init__(config)
@@ -79,10 +80,6 @@ class Force(Law):
                                               f'got {list(config.force_axes)}')
         self.check_servo_gains('force_kp', config.force_gains, 1)
         self.k_e = float(config.k_e[0])
-
-    @classmethod
-    def servo_sizes(cls, model, force_axes):
-        return ()
 
     @property
     def integral_dim(self):

@@ -22,14 +22,7 @@ class GravityCompensation(Law):
 
     name = 'gravity_compensation'
     tracks = None
-
-    @classmethod
-    def servo_sizes(cls, model, force_axes):
-        return ()
-
-    @property
-    def integral_dim(self):
-        return 0
+    motion_servo = False
 
     def torque(self, tick, int_E):
         return _gravity_compensation(self.model, tick.q)

@@ -119,6 +119,7 @@ class Impedance(Law):
     name = 'impedance'
     tracks = 'task'
     needs_task_space = True
+    motion_servo = False
 
     def __init__(self, config):
         super().__init__(config)
@@ -133,14 +134,6 @@ class Impedance(Law):
         self.rotation = rotation_mask(model.task_axes)
         self.limits = config.max_pose_error
         self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
-
-    @classmethod
-    def servo_sizes(cls, model, force_axes):
-        return ()
-
-    @property
-    def integral_dim(self):
-        return 0
 
     @property
     def reference_names(self):
