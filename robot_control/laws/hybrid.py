@@ -22,7 +22,7 @@ from robot_control import validation
 from robot_control.gains import ServoGains
 from robot_control.laws.base import Law
 from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, check_jacobian,
-                                                  posture_gains)
+                                                  check_law_fits, posture_gains)
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
@@ -134,9 +134,7 @@ class Hybrid(Law):
     def __init__(self, config):
         super().__init__(config)
         model, m, k = self.model, self.model.task_dim, len(config.force_axes)
-        if m > model.n:
-            raise ArgumentError('law', f'hybrid needs task dimension <= joints; the model has {m} task axes '
-                                       f'{list(model.task_axes)} and {model.n} joints')
+        check_law_fits(self.name, model)
         self.axes = config.force_mask
         motion = m - k
         if motion and getattr(config.gains, 'n', None) not in (m, motion):

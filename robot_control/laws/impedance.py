@@ -26,7 +26,7 @@ import numpy as np
 from robot_control import validation
 from robot_control.laws.base import Law
 from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
-                                                  check_task_dimension, posture_gains)
+                                                  check_law_fits, check_task_dimension, posture_gains)
 from robot_control.validation import ArgumentError
 
 #: the six axes of a pose, in the order of cartesian_stiffness and cartesian_damping
@@ -124,9 +124,7 @@ class Impedance(Law):
     def __init__(self, config):
         super().__init__(config)
         model = self.model
-        if model.task_dim > model.n:
-            raise ArgumentError('law', f'impedance needs task dimension <= joints; the model has {model.task_dim} '
-                                       f'task axes and {model.n} joints')
+        check_law_fits(self.name, model)
         self.K = axis_values('cartesian_stiffness', config.cartesian_stiffness, model.task_axes)
         explicit = config.cartesian_damping
         self.D = None if explicit is None else np.diag(axis_values('cartesian_damping', explicit, model.task_axes))

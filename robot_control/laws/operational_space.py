@@ -39,6 +39,14 @@ def check_task_dimension(J):
                                  'needs m <= n')
 
 
+def check_law_fits(law, model):
+    """ArgumentError naming law when `model` has more task axes than joints: an operational-space law
+    (hybrid, impedance) needs m <= n."""
+    if model.task_dim > model.n:
+        raise ArgumentError('law', f'{law} needs task dimension <= joints; the model has {model.task_dim} task axes '
+                                   f'{list(model.task_axes)} and {model.n} joints')
+
+
 def check_jacobian(J):
     """ArgumentError naming q when the task has more axes than joints or J(q) is (nearly) singular."""
     check_task_dimension(J)

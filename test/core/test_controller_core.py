@@ -508,9 +508,13 @@ def test_invalid_configurations_are_rejected_naming_the_parameter(changes, match
         polar_config(**changes)
 
 
-def test_hybrid_needs_task_dimension_at_most_the_joints():
-    with pytest.raises(ValueError, match='^law: hybrid needs task dimension'):
+def test_operational_space_laws_need_task_dimension_at_most_the_joints():
+    """single_link: 1 joint, 2 task axes (x, y); hybrid and impedance refuse it naming law and the sizes."""
+    with pytest.raises(ValueError, match=r'^law: hybrid needs task dimension <= joints; the model has 2 task axes '
+                                         r"\['x', 'y'\] and 1 joints"):
         ControllerConfig(make_model('single_link'), law='hybrid', gains=ServoGains.uniform(2, 1.0, 1.0))
+    with pytest.raises(ValueError, match='^law: impedance needs task dimension <= joints; the model has 2 task axes'):
+        ControllerConfig(make_model('single_link'), law='impedance', cartesian_stiffness=[100.0] * 6)
 
 
 def test_effort_limit_defaults_to_the_model():
