@@ -76,14 +76,20 @@ def vector(name, value, n=None):
     return a
 
 
-def matrix(name, value, shape):
-    """Return `value` as a finite float64 array of exactly `shape`."""
+def shaped(name, value, shape):
+    """Return `value` as a float64 array of exactly `shape` (entries not checked for finiteness)."""
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ArgumentError(name, f'expected a {shape} matrix of numbers, got {value!r}') from exc
     if a.shape != tuple(shape):
         raise ArgumentError(name, f'expected shape {tuple(shape)}, got {a.shape}')
+    return a
+
+
+def matrix(name, value, shape):
+    """Return `value` as a finite float64 array of exactly `shape`."""
+    a = shaped(name, value, shape)
     if not np.all(np.isfinite(a)):
         raise ArgumentError(name, 'expected finite values')
     return a

@@ -178,12 +178,7 @@ class References:
 
 def _rows_or_held(name, value, shape):
     """`value` as a float64 array of `shape`: finite, or NaN for a joint to hold; ArgumentError naming `name`."""
-    try:
-        rows = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ArgumentError(name, f'expected a {shape} matrix of numbers, got {value!r}') from exc
-    if rows.shape != tuple(shape):
-        raise ArgumentError(name, f'expected shape {tuple(shape)}, got {rows.shape}')
+    rows = validation.shaped(name, value, shape)
     if np.isinf(rows).any():
         raise ArgumentError(name, 'expected finite values (NaN: a joint to hold)')
     return rows
