@@ -32,8 +32,9 @@ Bad commands (unknown, missing or duplicate joint names, wrong lengths, NaN or i
 the World: a throttled warning, a count per reason, and the last valid command (or the brakes)
 stays in force. Mixing sources is refused (sim_bridge.loop.SourceGuard): more than one publisher
 on a command topic (counted by the node's graph on `refresh_publisher_counts`, and whenever a
-lockstep state is answered twice) or commands on both command topics engage the brakes until
-command_timeout of simulation time has passed without such evidence.
+lockstep state is answered twice) or commands on both command topics (evidence again with every
+command while the graph still shows publishers on both) engage the brakes until command_timeout of
+simulation time has passed without such evidence.
 
 Diagnostics (`diagnostics()`): three `Status` entries, `pacing` (mode, sim_time, paused,
 control_ticks, ...; lockstep: republished_states, late_commands, future_commands; realtime:

@@ -233,7 +233,9 @@ class SourceGuard:
       refreshed by the loop: periodically and whenever a lockstep answer comes twice);
     - commands on both command topics (JointState and Float64MultiArray) within `timeout_ns`;
     - stamped commands (JointState, `stamp_ns` given) whose stamp is not after the previous one's
-      while the graph shows more than one publisher (two sources answering the same states).
+      while the graph shows more than one publisher (two sources answering the same states);
+    - once commands came on both topics: a command on either while the graph still shows a publisher
+      on the other (a source that falls silent for a while, a stalled process, is still there).
     While there is evidence the loop holds the brakes; the conflict clears after `timeout_ns` of
     simulation time without new evidence.
 
@@ -254,6 +256,7 @@ class SourceGuard:
         self.conflicts = 0
         self.reason = ''
         self._evidence_ns = None
+        self._across = False        # the conflict in force is commands on both topics
         self.reset()
 
     def reset(self):
@@ -261,6 +264,7 @@ class SourceGuard:
         self._last_t = [None] * len(self.topics)
         self._last_stamp = [None] * len(self.topics)
         self._evidence_ns = None
+        self._across = False
 
     def set_count(self, topic, n, silent=False):
         """Number of publishers the graph shows on topic index `topic`; `silent`: no command is coming in
@@ -278,14 +282,16 @@ class SourceGuard:
             return False
         if t_ns - self._evidence_ns > self.timeout_ns or t_ns < self._evidence_ns:
             self._evidence_ns = None
+            self._across = False
             return False
         return True
 
-    def _evidence(self, t_ns, reason):
+    def _evidence(self, t_ns, reason, across=False):
         if self._evidence_ns is None:
             self.conflicts += 1
         self._evidence_ns = t_ns
         self.reason = reason
+        self._across = across
 
     def check(self, topic, t_ns, stamp_ns=None):
         """Record a command on topic index `topic` at simulation time `t_ns` (header stamp `stamp_ns`,
@@ -301,8 +307,9 @@ class SourceGuard:
         last_t = self._last_t
         for other in self._others[topic]:
             t_other = last_t[other]
-            if t_other is not None and 0 <= t_ns - t_other <= self.timeout_ns:
-                self._evidence(t_ns, f'commands on both {self.topics[other]} and {self.topics[topic]}')
+            recent = t_other is not None and 0 <= t_ns - t_other <= self.timeout_ns
+            if recent or (self._across and self.counts[other] > 0 and self.in_conflict(t_ns)):
+                self._evidence(t_ns, f'commands on both {self.topics[other]} and {self.topics[topic]}', across=True)
         last_t[topic] = t_ns
         return self._evidence_ns is None or not self.in_conflict(t_ns)
 

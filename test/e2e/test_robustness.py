@@ -25,6 +25,7 @@ import contextlib
 import math
 import os
 import re
+import signal
 import time
 
 import numpy as np
@@ -580,7 +581,8 @@ def test_bridge_sigkill_trips_the_controller_watchdog_and_a_restarted_bridge_res
 @pytest.mark.parametrize('topic', ['robot_joint_commands', 'effort_controller/commands'])
 def test_a_second_command_publisher_makes_the_bridge_brake_and_refuse_to_mix(topic):
     """A rogue node publishes 50 N m / 50 N on a command topic while the controller runs: the bridge brakes,
-    reports ERROR 'refusing to mix', never applies the rogue effort, and resumes once the rogue is gone."""
+    reports ERROR 'refusing to mix', never applies the rogue effort (not even while the controller stalls for
+    0.3 s, six command timeouts, SIGSTOP), and resumes once the rogue is gone."""
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
@@ -590,7 +592,7 @@ def test_a_second_command_publisher_makes_the_bridge_brake_and_refuse_to_mix(top
     with rh.processes() as procs, rh.ros_test_context(dom) as (ctx, ex):
         mon = rh.Monitor(ctx, POLAR)
         ex.add_node(mon.node)
-        _start_loop(dom, procs, ex, mon, dict(q_d=[0.2, 0.6], move_time=2.0))
+        _, ctrl = _start_loop(dom, procs, ex, mon, dict(q_d=[0.2, 0.6], move_time=2.0))
         drain(ex)
         s0 = mon.states[-1]
         rogue = Node('rogue', context=ctx)
@@ -613,7 +615,14 @@ def test_a_second_command_publisher_makes_the_bridge_brake_and_refuse_to_mix(top
         t_c, t_c_rx, d_c = conflict()
         status = _bridge_status(d_c, 'commands')
         assert status[0] == 'ERROR' and 'refusing to mix' in status[1], status
-        # keep the rogue publishing for 1 s of wall time: nothing it sends is applied, the arm is held
+        # keep the rogue publishing for 1 s of wall time: nothing it sends is applied, the arm is held; for the
+        # first 0.3 s the controller is stopped: a silent source still in the graph is not handed over
+        os.kill(ctrl.pid, signal.SIGSTOP)
+        try:
+            t_stop = time.monotonic()
+            spin_until(ex, lambda: time.monotonic() > t_stop + 0.3, 1.0, every=0.005, action=publish)
+        finally:
+            os.kill(ctrl.pid, signal.SIGCONT)
         spin_until(ex, lambda: time.monotonic() > t_c_rx + 1.0, 2.0, every=0.005, action=publish)
         # the evidence came at sim time t_c, after the state stamped t_c was out: that state's effort is the
         # command of the step before, which may be a rogue one that came before any evidence

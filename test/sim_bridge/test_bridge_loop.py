@@ -126,6 +126,29 @@ def test_guard_two_topics_conflict():
     assert g.check(1, 0)
 
 
+def test_guard_two_topics_conflict_holds_while_a_silent_source_stays_in_the_graph():
+    """The controller on 'a' stalls for 200 ms (4 timeouts) while a rogue keeps sending on 'b': the rogue is
+    refused throughout, since 'a' still shows a publisher; once 'b' has left the graph the conflict clears."""
+    g = SourceGuard(50 * MS, ('a', 'b'))
+    g.set_count(0, 1)
+    g.set_count(1, 1)
+    assert g.check(0, 0)
+    assert not g.check(1, 5 * MS)                      # commands on both: the conflict starts
+    assert not any(g.check(1, t * MS) for t in range(10, 210, 5))
+    assert g.conflicts == 1 and g.reason == 'commands on both a and b'
+    g.set_count(0, 0)                                  # the stalled controller left: the rogue is the only one
+    assert not g.check(1, 210 * MS)                    # the evidence of 205 ms holds for the timeout
+    assert g.check(1, 256 * MS)
+    # the other way round: the rogue leaves, the controller's commands are applied after the timeout
+    g.set_count(0, 1)
+    g.reset()
+    assert g.check(0, 0) is True and not g.check(1, 5 * MS)
+    g.set_count(1, 0)
+    assert not g.check(0, 50 * MS)                     # the rogue's last command came 45 ms before
+    assert not g.check(0, 100 * MS) and g.check(0, 101 * MS)
+    assert not g.in_conflict(101 * MS)
+
+
 def test_throttle_and_rate_meter():
     t = Throttle(1000)
     assert t.ready(0) and not t.ready(999) and t.ready(1000)
