@@ -23,10 +23,12 @@ Pacing (`cfg.mode`):
   simulation time arrived too late (held up by a network link that failed and came back): it is
   ignored and counted (outdated_commands), never applied, and does not count as fresh.
 
-Paused, physics stands still and the unchanged state is re-published every 0.1 s of wall time,
-so a controller sees a live robot (its watchdog does not trip) and may be configured or given a
-trajectory before the resume; in lockstep the latest answer received while paused is applied on
-resume. Reset rebuilds the World at t = 0 and forgets the command.
+Paused (by `pause`, or by itself after the first tick at or past cfg.pause_at: a breakpoint in
+simulation time, so a run-time change made while paused acts from an exact tick), physics stands
+still and the unchanged state is re-published every 0.1 s of wall time, so a controller sees a live
+robot (its watchdog does not trip) and may be configured or given a trajectory before the resume;
+in lockstep the latest answer received while paused is applied on resume. Reset rebuilds the World
+at t = 0 and forgets the command.
 
 Bad commands (unknown, missing or duplicate joint names, wrong lengths, NaN or inf) never reach
 the World: a throttled warning, a count per reason, and the last valid command (or the brakes)
@@ -64,6 +66,11 @@ WARN_PERIOD_NS = NS                   # throttled warnings: at most one per seco
 PAUSED_STATE_PERIOD_NS = NS // 10     # wall time between re-published states while paused
 #: the config fields a running loop cannot change (the node declares them read-only)
 FIXED = ('mode', 'joints', 'physics_step_ns', 'control_period_ns', 'clock_period_ns')
+
+
+def _armed(pause_at):
+    """The simulation time, ns, a pause_at value (s) arms, or None when negative (never)."""
+    return None if pause_at < 0.0 else units.to_ns(pause_at)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,6 +126,7 @@ class BridgeLoop(abc.ABC):
         self._have_cmd = False
         self._brake_reason = ''           # '' = brakes released
         self._paused = False
+        self._pause_at_ns = _armed(cfg.pause_at)
         self._wall_last_pub = 0
         self.ticks = 0
         self.brake_events = 0
@@ -164,7 +172,7 @@ class BridgeLoop(abc.ABC):
         """(level, message, {key: value}) of the mode's pacing, for diagnostics."""
 
     def configure(self, cfg):
-        """Apply a new BridgeConfig: command_timeout and the disturbance (realtime also the real-time
+        """Apply a new BridgeConfig: command_timeout, pause_at and the disturbance (realtime also the real-time
         factor). The FIXED fields must not change (ArgumentError naming the first that does)."""
         old = self.cfg
         changed = [name for name in FIXED if getattr(cfg, name) != getattr(old, name)]
@@ -173,6 +181,8 @@ class BridgeLoop(abc.ABC):
         self.cfg = cfg
         self._watchdog.timeout_ns = cfg.command_timeout_ns
         self._guard.timeout_ns = cfg.command_timeout_ns
+        if cfg.pause_at != old.pause_at:
+            self._pause_at_ns = _armed(cfg.pause_at)
         if (not np.array_equal(cfg.disturbance_joint_torque, old.disturbance_joint_torque)
                 or not np.array_equal(cfg.disturbance_cartesian_force, old.disturbance_cartesian_force)):
             self.world.set_disturbance(joint_torque=cfg.disturbance_joint_torque,
@@ -206,10 +216,14 @@ class BridgeLoop(abc.ABC):
 
     # -- ticks and states -----------------------------------------------------------------------
     def _step(self):
-        """One control tick: hold the torque in force for control_period, publish the new state."""
+        """One control tick: hold the torque in force for control_period, publish the new state; pause there
+        when it reached pause_at."""
         self.world.step(self._substeps)
         self.ticks += 1
         self._publish(in_loop=True)
+        if self._pause_at_ns is not None and self.world.t_ns >= self._pause_at_ns:
+            self._pause_at_ns = None
+            self.pause(True, f' (pause_at = {self.cfg.pause_at:g} s)')
 
     def _publish(self, in_loop=False):
         """Publish the World's state; /clock on the tick that crosses a clock_period (every tick if 0)."""
@@ -229,14 +243,14 @@ class BridgeLoop(abc.ABC):
         self._publish()
 
     # -- pause, reset ---------------------------------------------------------------------------
-    def pause(self, on):
-        """Pause (True) or resume (False); returns the message for the caller."""
+    def pause(self, on, why=''):
+        """Pause (True) or resume (False); returns the message for the caller (`why` appended)."""
         t = self.world.t_ns / NS
         if bool(on) == self._paused:
             return f'already {"paused" if self._paused else "running"} at t = {t:.3f} s'
         self._paused = bool(on)
         if self._paused:
-            message = f'paused at t = {t:.3f} s'
+            message = f'paused at t = {t:.3f} s{why}'
         else:
             message = f'resumed at t = {t:.3f} s'
             self._resume()
@@ -245,8 +259,8 @@ class BridgeLoop(abc.ABC):
         return message
 
     def reset(self):
-        """Rebuild the World at t = 0 (the disturbance stays), forget the command and the message
-        history, restart pacing and publish the first state; returns the message for the caller."""
+        """Rebuild the World at t = 0 (the disturbance stays, pause_at is armed again), forget the command
+        and the message history, restart pacing and publish the first state; returns the message for the caller."""
         w = self.world
         w.reset()
         self.ticks = 0
@@ -254,6 +268,7 @@ class BridgeLoop(abc.ABC):
         self._have_cmd = False
         self._watchdog.clear()
         self._guard.reset()
+        self._pause_at_ns = _armed(self.cfg.pause_at)
         self._brake_reason = ''           # the rebuilt world has no brakes; _restart puts them back
         self._restart()
         message = f'world rebuilt, t = {w.t_ns / NS:.3f} s'
@@ -276,7 +291,8 @@ class BridgeLoop(abc.ABC):
         t = self.world.t_ns
         cfg = self.cfg
         level, message, mode_values = self._pacing()
-        values = {'mode': cfg.mode, 'sim_time': t / NS, 'paused': self._paused, 'control_ticks': self.ticks,
+        values = {'mode': cfg.mode, 'sim_time': t / NS, 'paused': self._paused,
+                  'pause_at': 'n/a' if self._pause_at_ns is None else self._pause_at_ns / NS, 'control_ticks': self.ticks,
                   'physics_step': cfg.physics_step, 'control_period': cfg.control_period, **mode_values}
         if self._paused:
             message += ', paused'
@@ -478,6 +494,8 @@ class RealtimeLoop(BridgeLoop):
                 self._update_brakes(t)
             self._deadline.step(t)
             self._step()
+            if self._paused:                  # reached pause_at
+                break
 
     def _resume(self):
         """Re-anchor pacing at the wall clock: no burst of ticks follows the pause."""

@@ -6,7 +6,7 @@ without DDS.
 Stages: `scenario` and `urdf` choose the robot, `joints` defaults to the scenario's, and every
 other default is the scenario's own value (joints, initial positions, surface, physical
 parameters), so `ros2 param get` shows what the simulator really uses. Only real_time_factor,
-command_timeout, lockstep_timeout, disturbance.* and diagnostics_period may change at run time.
+command_timeout, lockstep_timeout, disturbance.*, pause_at and diagnostics_period may change at run time.
 
 `sim_params.*` are the simulated robot's true physical parameters (one per parameter of the
 scenario's closed-form model, e.g. m and gravity for polar_two_link): set them differently from
@@ -131,6 +131,10 @@ def rows(values):
         _fixed('wrench_frame_id', 'string', 'world',
                'frame_id of ft_sensor/wrench; the wrench is expressed in the world frame.', [not_empty()]),
         Row('diagnostics_period', 'double', 1.0, 'Period of /diagnostics, s (wall time).', [gt(0)]),
+        Row('pause_at', 'double', -1.0,
+            'Simulation time, s, at which the bridge pauses itself, as ~/pause true would: after the first tick '
+            'at or past it (a time already past: the next tick). Negative: never. Each new value arms it once; '
+            '~/pause false resumes. Run-time changes made while paused act from the tick it paused at.'),
         _fixed('gui', 'bool', False, 'Open the PyBullet GUI (needs a display).'),
     ]
     return out
@@ -167,6 +171,7 @@ class BridgeConfig:
     payload: tuple
     wrench_frame_id: str
     diagnostics_period: float
+    pause_at: float
     gui: bool
 
     @property
@@ -221,7 +226,8 @@ def build(values):
         disturbance_joint_torque=_vector(v['disturbance.joint_torque'], n),
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
         payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
-        wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], gui=v['gui'])
+        wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], pause_at=v['pause_at'],
+        gui=v['gui'])
 
 
 def validate(values):

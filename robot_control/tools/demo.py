@@ -223,11 +223,12 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         live.start_nodes(scenario, {'mode': mode, **experiment.bridge}, controller_params(experiment))
         origin_ns = live.wait_for_first_tick(mode)
         live.send_references(joints, experiment.trajectory, origin_ns)
+        changes = BridgeSchedule(experiment.bridge_events, origin_ns, say)
+        changes.arm(live)
         live.resume()
         end_ns = origin_ns + int(round(duration * NS))
         progress = Progress(live.collector, origin_ns, units, f_names, say if write else None)
         say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
-        changes = BridgeSchedule(experiment.bridge_events, origin_ns, say)
         live.run_until(end_ns, (ForceSchedule(experiment.force_events, f_names, origin_ns, say), changes), progress)
         live.pause()
         wall = time.monotonic() - t_wall0
@@ -278,10 +279,11 @@ class ForceSchedule:
 
 
 class BridgeSchedule:
-    """The experiment's changes of the bridge's run-time parameters ((t, {name: value}), ...): once the
-    simulation has reached t the bridge is paused, the parameters are set and it resumes. A change acts
-    from the tick the bridge paused at (its step to the next tick is the first with it); `applied` lists
-    them: [{'t': t s, 't_applied': that tick, s, 'parameters': {name: value}}]."""
+    """The experiment's changes of the bridge's run-time parameters ((t, {name: value}), ...): the bridge
+    pauses itself at t (its pause_at, armed for the next change), the parameters are set and it resumes. A
+    change acts from the tick the bridge paused at (its step to the next tick is the first with it), the
+    first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s, 'parameters':
+    {name: value}}]."""
 
     def __init__(self, events, origin_ns, say):
         self.events = sorted(events, key=lambda event: event[0])
@@ -289,13 +291,22 @@ class BridgeSchedule:
         self.say = say
         self.applied = []
 
+    def _pause_at(self):
+        """{'pause_at': the next change's simulation time, s (-1: none left)}."""
+        return {'pause_at': (self.origin_ns / NS + self.events[0][0]) if self.events else -1.0}
+
+    def arm(self, live):
+        """Set the bridge's pause_at for the first change (before the run resumes)."""
+        if self.events:
+            live.control.set_bridge_parameters(self._pause_at(), poll=live.alive)
+
     def send_due(self, live, stamp_ns):
         """Apply what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
         while self.events and stamp_ns >= self.origin_ns + int(round(self.events[0][0] * NS)):
             t_ev, values = self.events.pop(0)
-            live.pause()
+            live.pause()                     # paused already by pause_at; a no-op then
             t_applied = (live.paused_at() - self.origin_ns) / NS
-            live.control.set_bridge_parameters(values, poll=live.alive)
+            live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
             live.resume()
             self.applied.append({'t': t_ev, 't_applied': t_applied, 'parameters': dict(values)})
             self.say(f'[demo] bridge parameters {values} from t = {t_applied:.3f} s (due at t = {t_ev:.3f} s)',

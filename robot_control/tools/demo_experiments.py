@@ -15,10 +15,9 @@ References reach the controller as ROS messages:
   /controller/wrench_reference stamped with their time and sent ahead of it: the controller
   applies each at exactly that tick.
 - `bridge_events`: changes of the bridge's run-time parameters (e.g. disturbance.cartesian_force,
-  a push on the tip) at simulation times: when the simulation reaches t the demo pauses the
-  bridge, sets the parameters and resumes. The change acts from the tick the bridge paused at,
-  which the run records (RunData.events, summary `bridge_events`): in lockstep it lies a few
-  ticks after t, and may differ by a tick or two between runs.
+  a push on the tip) at simulation times: the bridge pauses itself at t (its pause_at), the demo
+  sets the parameters and resumes it. The change acts from the tick the bridge paused at, the
+  first at or past t, which the run records (RunData.events, summary `bridge_events`).
 """
 import math
 from dataclasses import dataclass, field

@@ -214,13 +214,13 @@ def test_defaults_validate_for_every_scenario():
         assert set(cfg.sim_params) >= set(sc.params)
 
 
-def test_every_parameter_has_a_description_and_only_the_pacing_and_disturbances_change_at_run_time():
+def test_every_parameter_has_a_description_and_only_the_pacing_disturbances_and_pause_at_change_at_run_time():
     rows, _ = bridge_params.TABLE.resolve(lambda row: 'iiwa' if row.name == 'scenario' else row.default)
     for row in rows:
         assert row.description and row.type in ('bool', 'double', 'string', 'double_array', 'string_array')
     assert {row.name for row in rows if not row.read_only} == {
         'real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
-        'disturbance.cartesian_force', 'diagnostics_period'}
+        'disturbance.cartesian_force', 'diagnostics_period', 'pause_at'}
 
 
 def test_control_period_multiple_of_physics_step():
@@ -414,6 +414,52 @@ def test_lockstep_pause_keeps_the_latest_answer_for_the_resume(bridge):
     assert [lvl for lvl, _ in node.logs] == ['info'] * 4 and node.diagnostics == 4
 
 
+def test_lockstep_pause_at_stops_at_that_tick_and_a_change_made_there_acts_from_it(bridge):
+    """pause_at 3.5 ms: the first tick at or past it (4 ms) is published, then the loop pauses; its answer
+    waits, a disturbance set there is in force for the step from 4 ms; a reset arms it again."""
+    loop, node = bridge(mode='lockstep', pause_at=0.0035)
+    assert statuses(loop)['pacing'].values['pause_at'] == 0.0035
+    for k in range(4):
+        loop.on_joint_command(k * MS, JOINTS, HOLD)
+    assert loop.paused and loop.world.t_ns == 4 * MS and node.logs[-1] == ('info', 'paused at t = 0.004 s '
+                                                                                   '(pause_at = 0.0035 s)')
+    loop.on_joint_command(4 * MS, JOINTS, HOLD)                # answered while paused: held
+    assert loop.world.t_ns == 4 * MS and statuses(loop)['pacing'].values['pause_at'] == 'n/a'   # disarmed
+    qd_before = node.world.state()[1].copy()
+    loop.configure(dataclasses.replace(loop.cfg, disturbance_joint_torque=np.array([0.0, 5.0])))
+    loop.pause(False)
+    assert loop.world.t_ns == 5 * MS and not loop.paused
+    # the step from 4 ms ran with the 5 N push on r (the robot at rest in Q0): qd grew by M^-1 [0, 5] dt
+    assert node.world.state()[1] - qd_before == pytest.approx(np.linalg.solve(POLAR.M(Q0), [0.0, 5.0]) * 1e-3,
+                                                               rel=0.05, abs=1e-9)
+    for k in range(5, 10):                                      # not again at the same value
+        loop.on_joint_command(k * MS, JOINTS, HOLD)
+    assert not loop.paused and loop.world.t_ns == 10 * MS
+    loop.configure(dataclasses.replace(loop.cfg, pause_at=0.002))    # already past: the next tick
+    loop.on_joint_command(10 * MS, JOINTS, HOLD)
+    assert loop.paused and loop.world.t_ns == 11 * MS
+    loop.pause(False)
+    loop.reset()                                                # armed again at 2 ms
+    loop.on_joint_command(0, JOINTS, HOLD)
+    loop.on_joint_command(MS, JOINTS, HOLD)
+    assert loop.paused and loop.world.t_ns == 2 * MS
+
+
+def test_realtime_pause_at_stops_inside_a_burst_of_due_ticks(bridge):
+    loop, node = bridge(mode='realtime', pause_at=0.0032)
+    loop.on_joint_command(0, JOINTS, HOLD)
+    node.now += 10 * MS                                         # ten ticks due: four run, 4 ms >= 3.2 ms
+    loop.on_timer()
+    assert loop.paused and loop.ticks == 4 and loop.world.t_ns == 4 * MS
+    node.now += 10 * MS
+    loop.on_timer()
+    assert loop.ticks == 4
+    loop.pause(False)
+    node.now += 2 * MS
+    loop.on_timer()
+    assert loop.ticks == 6 and not loop.paused                 # re-anchored at the resume, no burst
+
+
 def test_realtime_brakes_on_a_stale_command_and_releases_on_a_fresh_one(bridge):
     loop, node = bridge(mode='realtime', command_timeout=0.05)
     assert isinstance(loop, RealtimeLoop)
@@ -549,7 +595,7 @@ def test_diagnostics_keys_and_levels(bridge):
     s = statuses(loop)
     assert [(x.level, x.message) for x in s.values()] == [('OK', 'lockstep'), ('OK', '0 commands accepted'),
                                                          ('OK', 'released')]
-    assert list(s['pacing'].values) == ['mode', 'sim_time', 'paused', 'control_ticks', 'physics_step',
+    assert list(s['pacing'].values) == ['mode', 'sim_time', 'paused', 'pause_at', 'control_ticks', 'physics_step',
                                         'control_period', 'republished_states', 'late_commands', 'future_commands']
     assert list(s['commands'].values) == (
         ['accepted', 'rejected'] + [f'rejected_{r}' for r in REJECT_REASONS]
@@ -561,7 +607,7 @@ def test_diagnostics_keys_and_levels(bridge):
     assert commands.level == 'WARN' and commands.message.startswith('1 commands rejected, last: name: unknown')
     realtime, _ = bridge(mode='realtime')
     s = statuses(realtime)
-    assert list(s['pacing'].values)[6:] == ['real_time_factor', 'achieved_real_time_factor', 'overruns',
+    assert list(s['pacing'].values)[7:] == ['real_time_factor', 'achieved_real_time_factor', 'overruns',
                                             'deadline_hits', 'deadline_misses', 'latency_p50_ms', 'latency_p99_ms']
     assert s['brakes'].level == 'WARN' and s['brakes'].message == 'engaged: no command yet'
 

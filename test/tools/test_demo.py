@@ -428,15 +428,24 @@ class _FakeLive:
         pass
 
 
-def test_bridge_parameter_changes_pause_set_and_resume_when_due():
+def test_bridge_parameter_changes_arm_pause_at_then_set_and_resume_when_due():
+    """The bridge's pause_at is armed for the first change (origin 1 s + 0.5 s), set with each change for the
+    next one (1 s + 2 s), and disarmed (-1) with the last."""
     push = {'disturbance.cartesian_force': [0.0, 0.0, -10.0]}
     schedule = demo.BridgeSchedule(((2.0, {}), (0.5, push)), 1_000_000_000, lambda *a, **k: None)
     live = _FakeLive()
+    schedule.arm(live)
+    assert live.calls == [('set', {'pause_at': 1.5})]
     schedule.send_due(live, 1_000_000_000 + 499_000_000)
-    assert live.calls == [] and schedule.applied == []
+    assert len(live.calls) == 1 and schedule.applied == []
     schedule.send_due(live, 1_000_000_000 + 501_000_000)
-    assert live.calls == ['pause', 'paused_at', ('set', push), 'resume']
+    assert live.calls[1:] == ['pause', 'paused_at', ('set', {**push, 'pause_at': 3.0}), 'resume']
     assert schedule.applied == [{'t': 0.5, 't_applied': 0.503, 'parameters': push}]
+    schedule.send_due(live, 3_000_000_000)
+    assert live.calls[-2] == ('set', {'pause_at': -1.0}) and len(schedule.applied) == 2
+    empty = _FakeLive()
+    demo.BridgeSchedule((), 0, lambda *a, **k: None).arm(empty)
+    assert empty.calls == []
 
 
 # -- the README results table ----------------------------------------------------------------------------
