@@ -12,6 +12,7 @@ file whose tail is quoted when it dies early.
 """
 import atexit
 import ctypes
+import faulthandler
 import os
 import signal
 import subprocess
@@ -250,6 +251,9 @@ class Interrupted(KeyboardInterrupt):
 
 
 _received = []      # signals whose exception may have been swallowed (see check_interrupted)
+_timers = []        # the force-exit timer the first signal started
+#: s after a signal by which the process has stopped: past it the children are stopped and it exits with 130
+FORCE_EXIT_S = 20.0
 
 
 def _interruption(signum):
@@ -258,19 +262,35 @@ def _interruption(signum):
     return Interrupted(f'signal {signal.Signals(signum).name}')
 
 
-def install_signal_handlers():
+def install_signal_handlers(force_exit_after=FORCE_EXIT_S):
     """SIGTERM and SIGHUP raise Interrupted in the main thread, SIGINT raises KeyboardInterrupt.
 
     The exception is raised in whatever Python code runs when the signal comes; Python drops one
     raised inside a finalizer (an rclpy Future's __del__, say). The signal is also remembered, and
-    check_interrupted() raises it again. Returns the previous handlers, for restore_signal_handlers().
+    check_interrupted() raises it again. Should the process still run `force_exit_after` s after the
+    first signal (the exception landed where nothing polls, a wait that never returns), a timer prints
+    every thread's stack, stops every child and exits with status 130. Returns the previous handlers,
+    for restore_signal_handlers().
     """
     def handler(signum, _frame):
         _received.append(signum)
+        if not _timers:
+            timer = threading.Timer(force_exit_after, _force_exit, args=(signum, force_exit_after))
+            timer.daemon = True
+            timer.start()
+            _timers.append(timer)
         raise _interruption(signum)
 
     _received.clear()
     return {sig: signal.signal(sig, handler) for sig in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)}
+
+
+def _force_exit(signum, after):
+    print(f'[demo] still running {after:g} s after {signal.Signals(signum).name}: stopping every child and '
+          'exiting; the threads were at:', file=sys.stderr, flush=True)
+    faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
+    stop_all_children()
+    os._exit(130)
 
 
 def check_interrupted():
@@ -281,7 +301,10 @@ def check_interrupted():
 
 
 def restore_signal_handlers(old):
+    """Put back the handlers install_signal_handlers() replaced; forget the signals, cancel the force exit."""
     for sig, h in old.items():
         signal.signal(sig, h)
     _received.clear()
+    while _timers:
+        _timers.pop().cancel()
 

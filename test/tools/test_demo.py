@@ -202,6 +202,38 @@ def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
     demo_procs.check_interrupted()              # restored: forgotten
 
 
+def test_a_process_that_hangs_after_a_signal_is_ended_with_its_children(tmp_path):
+    """The interruption lands where nothing polls and the code waits on (here: it is caught and ignored):
+    force_exit_after s after SIGTERM the stacks are printed, the child is stopped and the exit status is 130."""
+    script = ('import sys, time\n'
+              'from robot_control.tools import demo_procs\n'
+              'demo_procs.install_signal_handlers(force_exit_after=1.0)\n'
+              'child = demo_procs.ProcessSet().start("sleeper", [sys.executable, "-c", "import time; time.sleep(600)"],'
+              ' dict(__import__("os").environ), sys.argv[1])\n'
+              'print("child", child.pid, flush=True)\n'
+              'while True:\n'
+              '    try:\n'
+              '        time.sleep(600)\n'
+              '    except KeyboardInterrupt:\n'
+              '        pass\n')
+    p = subprocess.Popen([sys.executable, '-c', script, str(tmp_path / 'sleeper.log')], cwd=ROOT, text=True,
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        child = int(p.stdout.readline().split()[1])
+        assert _alive(child)
+        t0 = time.monotonic()
+        os.kill(p.pid, signal.SIGTERM)
+        assert p.wait(timeout=20) == 130
+        took = time.monotonic() - t0
+        out = p.stdout.read()
+        assert 1.0 <= took < 15.0 and 'still running 1 s after SIGTERM' in out and 'Thread' in out, out
+        assert not _alive(child)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait(timeout=10)
+
+
 def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
     stubborn = ('import signal, time\n'
                 'signal.signal(signal.SIGINT, signal.SIG_IGN)\n'
