@@ -9,8 +9,9 @@
 - Processes inside run `ip netns exec <ns> ...` with /dev/shm of their host bind-mounted over the
   machine's (one directory per namespace), so the two hosts share nothing but the link, as two
   computers would; processes of the same host still share memory, as DDS expects.
-- Loop.capture(): tcpdump on a host's end of the link, counting the packets a filter matches (to show
-  what crossed the link, e.g. no multicast). tcpdump is optional: CAPTURE_UNAVAILABLE says why not.
+- Loop.capture_multicast(): a packet socket (AF_PACKET) on a host's end of the link counting the UDP
+  packets to IPv4 multicast addresses that cross it, both ways (to show that none did).
+- `python test/two_hosts.py capture DEV`: that counter, run on a host; prints the count on SIGINT.
 - `python test/two_hosts.py observe ...`: an observer node run on a host: receive times and stamps of
   joint_states and robot_joint_commands, the /diagnostics statuses, written as JSON on SIGINT.
 - `python test/two_hosts.py node --publish-log PATH MODULE ARGS`: MODULE's main(ARGS) with every
@@ -30,8 +31,6 @@ NS = 1_000_000_000
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: second octet of the test subnets: 10.213.<k>.0/24, k from the pid
 SUBNET_PREFIX = '10.213'
-#: why Loop.capture cannot run here (None: it can)
-CAPTURE_UNAVAILABLE = None if shutil.which('tcpdump') else 'no tcpdump to count the packets on the link'
 
 
 def _ip(*args, check=True):
@@ -211,18 +210,16 @@ class Loop:
         self.nodes[name] = self._start(name, host, argv)
         return self.nodes[name]
 
-    def capture(self, host, name, expression, timeout=10.0):
-        """Start tcpdump on `host`'s end of the link counting the packets that match `expression` (a pcap
-        filter, e.g. 'udp and ip multicast'), both directions; returns once it listens. captured(name)
-        gives the count after stop()."""
-        argv = ['tcpdump', '-i', self.net.dev[host], '-n', '-l', '-q', '-p', expression]
-        env = dict(os.environ)
-        p = self.procs.start(name, self.net.argv(host, argv), env, os.path.join(self.out, f'{name}.log'))
-        self.wait_for(lambda: 'listening on' in p.log_tail(), timeout, f'tcpdump {name} to listen')
+    def capture_multicast(self, host, name, timeout=10.0):
+        """Start counting the multicast UDP packets on `host`'s end of the link, both directions (`capture`);
+        returns once it listens. captured(name) gives the count after stop()."""
+        argv = [sys.executable, __file__, 'capture', self.net.dev[host]]
+        p = self.procs.start(name, self.net.argv(host, argv), dict(os.environ), os.path.join(self.out, f'{name}.log'))
+        self.wait_for(lambda: 'listening on' in p.log_tail(), timeout, f'capture {name} to listen')
         return p
 
     def captured(self, name):
-        """The number of packets capture `name` matched (after stop(): tcpdump prints it on exit)."""
+        """The number of packets capture `name` counted (after stop(): it prints it on exit)."""
         with open(os.path.join(self.out, f'{name}.log')) as f:
             found = re.search(r'^(\d+) packets? captured', f.read(), re.M)
         if found is None:
@@ -406,6 +403,35 @@ def timed_node(module, log_path, argv):
         os.replace(log_path + '.part', log_path)
 
 
+ETH_P_ALL, ETH_P_IP, IPPROTO_UDP = 0x0003, 0x0800, 17
+
+
+def is_multicast_udp(frame):
+    """True for an Ethernet frame carrying IPv4 UDP to a multicast address (224.0.0.0/4)."""
+    return (len(frame) >= 34 and int.from_bytes(frame[12:14], 'big') == ETH_P_IP and frame[23] == IPPROTO_UDP
+            and 224 <= frame[30] <= 239)
+
+
+def capture(dev):
+    """Count the multicast UDP frames on `dev`, sent and received, until SIGINT; then print
+    '<n> packets captured' (root: a packet socket)."""
+    import socket
+    sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ALL))
+    sock.bind((dev, 0))
+    count = 0
+    print(f'listening on {dev}', flush=True)
+    try:
+        while True:
+            if is_multicast_udp(sock.recv(65535)):
+                count += 1
+    except KeyboardInterrupt:
+        pass
+    finally:
+        sock.close()
+        print(f'{count} packets captured', flush=True)
+    return 0
+
+
 def main(argv=None):
     import argparse
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -419,7 +445,11 @@ def main(argv=None):
     nd.add_argument('module')
     nd.add_argument('--publish-log', required=True)
     nd.add_argument('args', nargs=argparse.REMAINDER)
+    cp = sub.add_parser('capture', help='count the multicast UDP packets on a network device until SIGINT')
+    cp.add_argument('dev')
     a = parser.parse_args(argv)
+    if a.cmd == 'capture':
+        return capture(a.dev)
     if a.cmd == 'observe':
         observe(a.out, a.joints, a.topics, a.progress)
         return 0
