@@ -32,8 +32,7 @@ ROBUSTNESS_BEGIN = '<!-- robustness:begin -->'
 ROBUSTNESS_END = '<!-- robustness:end -->'
 TWO_HOSTS_BEGIN = '<!-- two-hosts:begin -->'
 TWO_HOSTS_END = '<!-- two-hosts:end -->'
-#: the figures of test/e2e/test_two_hosts.py the README table needs (the multicast counts are optional:
-#: they need tcpdump)
+#: the figures of test/e2e/test_two_hosts.py the README table needs
 TWO_HOSTS_FIGURES = (
     'realtime_packets_per_s_a_to_b', 'realtime_packets_per_s_b_to_a', 'realtime_outage_longest_joint_states_gap_ms',
     'realtime_outage_sim_s_per_wall_s', 'realtime_outage_longest_publish_ms_bridge',
@@ -43,7 +42,8 @@ TWO_HOSTS_FIGURES = (
     'lockstep_outage_resume_after_s', 'realtime_outage_resume_torque_minus_gravity_hold',
     'realtime_outage_rss_growth_mb_bridge', 'realtime_outage_rss_growth_mb_controller',
     'lockstep_outage_republished_states', 'lockstep_bit_identical_ticks_states',
-    'lockstep_bit_identical_ticks_commands', 'lockstep_static_peers_packets_a_to_b', 'tests_failed')
+    'lockstep_bit_identical_ticks_commands', 'lockstep_static_peers_packets_a_to_b',
+    'lockstep_static_peers_multicast_packets', 'realtime_subnet_multicast_packets', 'tests_failed')
 #: the figures of test/e2e/test_robustness.py a README table needs (a partial run lacks some)
 ROBUSTNESS_FIGURES = ('1_controller_sigkill', '2_bridge_sigkill', '4_flood', '6_second_publisher_robot_joint_commands',
                       '6_second_publisher_effort_controller/commands', '7_unguarded', '7_lost_contact_processes',
@@ -224,11 +224,8 @@ def two_hosts_table(fig):
                          'test/e2e/test_two_hosts.py')
     if fig['tests_failed']:
         raise ValueError(f'two-host figures of a run in which {fig["tests_failed"]} tests failed')
-    if 'lockstep_static_peers_multicast_packets' in fig:
-        multicast = (f'{fig["lockstep_static_peers_multicast_packets"]} (the SUBNET run: '
-                     f'{fig["realtime_subnet_multicast_packets"]})')
-    else:
-        multicast = 'not counted (no tcpdump)'
+    multicast = (f'{fig["lockstep_static_peers_multicast_packets"]} (the SUBNET run: '
+                 f'{fig["realtime_subnet_multicast_packets"]})')
     f = fig
 
     def pair(a, b, spec, unit):

@@ -637,8 +637,6 @@ def test_readme_two_hosts_table_is_generated_from_a_whole_passing_run_only(tmp_p
                  '| 0.00 N m |', '| 3.6 / 0.8 MB |', '| 12 |', 'bit-identical (1,087 states, 1,047 commands)',
                  '| 5,378 / 0 (the SUBNET run: 28) | > 500 / 0 |'):
         assert cell in text, cell
-    del fig['lockstep_static_peers_multicast_packets'], fig['realtime_subnet_multicast_packets']   # no tcpdump
-    assert '| 5,378 / not counted (no tcpdump) |' in readme_results.two_hosts_table(fig)
     del fig['realtime_outage_sim_s_per_wall_s']                     # a run with -k: refused, naming what is missing
     with pytest.raises(ValueError, match=r"partial run \(missing \['realtime_outage_sim_s_per_wall_s'\]\)"):
         readme_results.two_hosts_table(fig)
