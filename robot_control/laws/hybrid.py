@@ -21,8 +21,8 @@ import numpy as np
 from robot_control import validation
 from robot_control.gains import ServoGains
 from robot_control.laws.base import Law
-from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, check_jacobian,
-                                                  check_law_fits, posture_gains)
+from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
+                                                  check_law_fits, check_task_dimension, posture_gains)
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
@@ -114,12 +114,14 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
     kp0, kv0 = posture_gains(k_posture, n)
     int_E = validation.optional_vector('int_E', int_E, m)
     x, J, Jdot_qd = model._task(q, qd)
-    check_jacobian(J)
+    check_task_dimension(J)
+    Lambda, _ = _task_inertia_root(model, q, J)
     acc, E, Ed = _hybrid_errors(model._task_difference(x_d, x), J @ qd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d,
                                 axes)
     F = validation.result('F', _hybrid_servo(acc, E, Ed, gains, K_e, int_E))
     qdd_0 = _posture_acceleration(q, qd, q_posture, kp0, kv0)
-    return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, np.where(axes, f, 0.0), qdd_0))
+    return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, np.where(axes, f, 0.0), qdd_0,
+                                                       Lambda))
 
 
 class Hybrid(Law):
@@ -192,10 +194,10 @@ class Hybrid(Law):
         return full
 
     def torque(self, tick, int_E):
-        check_jacobian(tick.J)
+        Lambda, _ = _task_inertia_root(self.model, tick.q, tick.J)
         F = _hybrid_servo(tick.ref[2], tick.E, tick.Ed, self.gains, self.K_e, int_E)
         qdd_0 = _posture_acceleration(tick.q, tick.qd, tick.q_d, self.kp0, self.kv0)
-        return _operational_space(self.model, tick.q, tick.qd, tick.J, tick.Jdot_qd, F, self.f_e, qdd_0)
+        return _operational_space(self.model, tick.q, tick.qd, tick.J, tick.Jdot_qd, F, self.f_e, qdd_0, Lambda)
 
     def freeze(self, tick, saturated, tau):
         """The task-space integral drives every joint: hold it whole while any joint saturates."""

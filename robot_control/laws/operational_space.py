@@ -9,8 +9,8 @@ For an articulated, possibly redundant arm with task X = fk(q) (m,), J (m, n), m
 gives Xdd = F in closed loop with the contact force f_e (the robot's dynamics being
 M qdd + C qd + g + J^T f_e = tau), and the posture acceleration qdd_0 acts in the null space only.
 For a Cartesian robot (J = I) it is the lecture's tau = M_x F + C_x + g_x + f_e (3.1). The same
-torque in joint-space form, which is how it is evaluated (one RNEA call, M^-1 by Cholesky, an
-m x m inverse):
+torque in joint-space form, which is how it is evaluated (one RNEA call, M^-1 by Cholesky, the
+eigendecomposition of the m x m J M^-1 J^T, which also tells a singular J):
 
     tau = M qdd* + C qd + g + J^T f_e,  qdd* = qdd_0 + Jbar (F - Jdot qd - J qdd_0)
         = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e).
@@ -20,14 +20,10 @@ import numpy as np
 from robot_control import validation
 from robot_control.validation import ArgumentError
 
-#: largest accepted condition number of the task Jacobian J(q)
-MAX_JACOBIAN_COND = 1e9
-
-
-#: largest accepted condition number of J M^-1 J^T (the inverse task inertia), where the task inertia
-#: comes from its eigendecomposition (_task_inertia_root): the eigenvalues' rounding is about 1e-16 of the
-#: largest, so a singular J shows a smallest one below 1e-14 of it (MAX_JACOBIAN_COND^2 would drown in
-#: rounding); the mass weighting alone spreads the iiwa's (a light last link) over 1e3 to 1e4
+#: largest accepted condition number of J M^-1 J^T (the inverse task inertia), from its eigenvalues
+#: (_task_inertia_root): their rounding is about 1e-16 of the largest, so a singular J shows a smallest
+#: one below 1e-14 of it (a bound of 1e9 on cond(J), squared, would drown in rounding); the mass weighting
+#: alone spreads the iiwa's (a light last link) over 1e3 to 1e4
 MAX_INERTIA_COND = 1e14
 
 
@@ -47,23 +43,11 @@ def check_law_fits(law, model):
                                    f'{list(model.task_axes)} and {model.n} joints')
 
 
-def check_jacobian(J):
-    """ArgumentError naming q when the task has more axes than joints or J(q) is (nearly) singular."""
-    check_task_dimension(J)
-    sv = np.linalg.svd(J, compute_uv=False)
-    if not sv[-1] * MAX_JACOBIAN_COND > sv[0]:
-        raise ArgumentError('q', f'task Jacobian singular or nearly (singular values {sv.tolist()})')
-
-
-def _task_inertia(model, q, J):
-    """The operational-space inertia Lambda = (J M^-1 J^T)^-1, (m, m), kg and kg m^2; J full rank."""
-    return np.linalg.inv(J @ model._Minv(q) @ J.T)
-
-
 def _task_inertia_root(model, q, J):
-    """(Lambda, Lambda^1/2), each (m, m) symmetric positive definite, from one eigendecomposition
-    J M^-1 J^T = V diag(w) V^T: Lambda = V diag(1/w) V^T, Lambda^1/2 = V diag(w^-1/2) V^T. ArgumentError
-    naming q when J(q) is (nearly) singular: the spread of w beyond MAX_INERTIA_COND (J (m, n), m <= n)."""
+    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2) and Lambda^1/2, each (m, m)
+    symmetric positive definite, from one eigendecomposition J M^-1 J^T = V diag(w) V^T: Lambda =
+    V diag(1/w) V^T, Lambda^1/2 = V diag(w^-1/2) V^T. ArgumentError naming q when J(q) is (nearly)
+    singular: the spread of w beyond MAX_INERTIA_COND (J (m, n), m <= n)."""
     w, V = np.linalg.eigh(J @ model._Minv(q) @ J.T)
     if not w[0] * MAX_INERTIA_COND > w[-1]:
         raise ArgumentError('q', f'task Jacobian singular or nearly (eigenvalues of J M^-1 J^T {w.tolist()})')
@@ -71,13 +55,11 @@ def _task_inertia_root(model, q, J):
     return root @ root.T, root @ V.T
 
 
-def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda=None):
+def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda):
     """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e), Lambda = (J M^-1 J^T)^-1.
 
-    Checked arrays: q, qd, qdd_0 (n,); J (m, n) full rank (check_jacobian); Jdot_qd, F (m/s^2), f_e (N) (m,);
-    Lambda: the task inertia when the caller has it already (_task_inertia)."""
-    if Lambda is None:
-        Lambda = _task_inertia(model, q, J)
+    Checked arrays: q, qd, qdd_0 (n,); J (m, n); Jdot_qd, F (m/s^2), f_e (N) (m,); Lambda (m, m) the task
+    inertia (_task_inertia_root, which refuses a singular J)."""
     return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (Lambda @ (F - Jdot_qd - J @ qdd_0) + f_e)
 
 
@@ -116,5 +98,6 @@ def operational_space(model, q, qd, F, f_e, qdd_0=None):
     F, f_e = validation.vectors(model.task_dim, F=F, f_e=f_e)
     qdd_0 = np.zeros(model.n) if qdd_0 is None else validation.vector('qdd_0', qdd_0, model.n)
     x, J, Jdot_qd = model._task(q, qd)
-    check_jacobian(J)
-    return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0))
+    check_task_dimension(J)
+    Lambda, _ = _task_inertia_root(model, q, J)
+    return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda))
