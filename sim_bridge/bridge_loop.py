@@ -292,7 +292,8 @@ class BridgeLoop(abc.ABC):
         cfg = self.cfg
         level, message, mode_values = self._pacing()
         values = {'mode': cfg.mode, 'sim_time': t / NS, 'paused': self._paused,
-                  'pause_at': 'n/a' if self._pause_at_ns is None else self._pause_at_ns / NS, 'control_ticks': self.ticks,
+                  'pause_at': 'n/a' if self._pause_at_ns is None else self._pause_at_ns / NS,
+                  'control_ticks': self.ticks,
                   'physics_step': cfg.physics_step, 'control_period': cfg.control_period, **mode_values}
         if self._paused:
             message += ', paused'

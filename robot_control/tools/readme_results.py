@@ -198,7 +198,8 @@ def robustness_table(summary):
          f'{bridge["watchdog_error_after_s"]:.2f} s (state_timeout 0.5 s); resumes from the current state'),
         (f'joint_states flood at {flood["publisher_rate_hz"]:,} Hz for 5 s: controller RSS growth / answer age p99',
          f'{flood["rss_growth_mb"]:.1f} MB / {flood["answer_age_p99_ms"]:.1f} ms'),
-        ('second command publisher: detected after / rogue efforts applied',
+        ('second command publisher (the controller stopped for 0.3 s meanwhile): detected after / rogue efforts '
+         'applied',
          f'{detect[0]:.0f}-{detect[-1]:.0f} ms / {sum(r["rogue_efforts_applied"] for r in rogue)} of '
          f'{sum(r["rogue_messages_sent"] for r in rogue)}'),
         ('lost contact in hybrid control: travel past the surface (guard at 10 mm) / unguarded',
