@@ -150,6 +150,29 @@ def service_pause(s):
     return f'"{said}": joint_states held at t = {seconds(t1):.3f} s; "{resumed}": advances again ({seconds(t3):.3f} s)'
 
 
+def param_pause_at(s):
+    """pause_at, set while paused to 0.2 s of simulation time ahead: after the resume the bridge stops by
+    itself at the first tick at or past it; disarmed again (-1) before the next check."""
+    bridge, pause = s.name('sim_bridge'), s.name('sim_bridge/pause')
+    with open(s.config(), encoding='utf-8') as f:
+        period_ns = round(yaml.safe_load(f)['/**/sim_bridge']['ros__parameters']['control_period'] * 1e9)
+    s.ros2.call(pause, 'std_srvs/srv/SetBool', '{data: true}')
+    at_ns = s.stamp() + 200_000_000
+    out = s.ros2.run('param', 'set', bridge, 'pause_at', f'{at_ns / 1e9:.9f}')
+    if 'Set parameter successful' not in out:
+        raise CheckFailed(f'pause_at {seconds(at_ns):.3f}: {tail(out)}')
+    s.ros2.call(pause, 'std_srvs/srv/SetBool', '{data: false}')
+    t1, t2 = s.stamp(), s.stamp()
+    if t2 != t1 or not 0 <= t1 - at_ns < period_ns:
+        raise CheckFailed(f'pause_at {seconds(at_ns):.3f} s: joint_states at t = {seconds(t1):.3f}, then '
+                          f'{seconds(t2):.3f} s (expected held at the first tick at or past it)')
+    s.ros2.run('param', 'set', bridge, 'pause_at', '-1.0')
+    resumed = s.ros2.call(pause, 'std_srvs/srv/SetBool', '{data: false}')
+    s.advancing()
+    return (f'pause_at {seconds(at_ns):.3f}: joint_states held at t = {seconds(t1):.3f} s; "{resumed}": '
+            'advances again')
+
+
 def service_reset(s):
     pause = s.name('sim_bridge/pause')
     s.ros2.call(pause, 'std_srvs/srv/SetBool', '{data: true}')
@@ -251,6 +274,7 @@ LAUNCH_CHECKS = (
     ('ros2 topic echo --once', topic_echo),
     ('ros2 topic hz', topic_hz),
     ('ros2 service call ~/pause', service_pause),
+    ('ros2 param set pause_at', param_pause_at),
     ('ros2 service call ~/reset', service_reset),
     ('ros2 lifecycle', lifecycle),
     ('ros2 launch stops on Ctrl-C', launch_shutdown),
