@@ -62,15 +62,6 @@ def figures(request):
     (reporter.write_line if reporter is not None else print)(text)
 
 
-def capture_multicast(loop):
-    """Count the multicast UDP packets (SPDP's announcements are) on host a's end of the link, both ways."""
-    loop.capture_multicast('a', 'multicast')
-
-
-def multicast_packets(loop):
-    return loop.captured('multicast')
-
-
 def loop_closed(loop, host='a', commands=50):
     p = loop.progress(host)
     return p is not None and p['commands'] >= commands
@@ -87,7 +78,7 @@ def realtime():
     """The realtime run: SUBNET discovery, the link down for OUTAGE s while the arm moves."""
     with DomainClaim(DOMAINS) as claim, th.TwoHosts() as net, th.Loop(net, claim.domain_id,
                                                                       os.path.join(OUT, 'realtime')) as loop:
-        capture_multicast(loop)
+        loop.capture_multicast('a', 'multicast')   # SPDP's announcements are multicast UDP
         loop.observer('a', ('joint_states', 'commands', 'diagnostics'))
         loop.observer('b', ('diagnostics',))
         loop.node('bridge', 'a', 'sim_bridge.bridge_node', mode='realtime')
@@ -102,7 +93,7 @@ def realtime():
         rss_after = loop.rss_kb()
         loop.stop()
         res = loop.results()
-        res['multicast_packets'] = multicast_packets(loop)
+        res['multicast_packets'] = loop.captured('multicast')
     res.update(t_down=t_down, t_up=t_up, rss_before=rss_before, rss_after=rss_after,
                packets_per_s={k: (c1[k] - c0[k]) / ((t1 - t0) / NS) for k in ('tx_packets', 'rx_packets')})
     return res
@@ -252,7 +243,7 @@ def lockstep():
                                                           static_peers=True) as loop:
             routes = {h: net.routes(h, SPDP_MULTICAST) for h in ('a', 'b')}
             c0 = net.counters('a')
-            capture_multicast(loop)
+            loop.capture_multicast('a', 'multicast')   # SPDP's announcements are multicast UDP
             loop.observer('a', ('joint_states', 'commands', 'diagnostics'))
             loop.node('bridge', 'a', 'sim_bridge.bridge_node', mode='lockstep')
             loop.node('controller', 'b', 'robot_control.ros.controller_node', q_d=Q_D)
@@ -262,7 +253,7 @@ def lockstep():
             c1 = net.counters('a')
             loop.stop()
             res = loop.results()
-            res['multicast_packets'] = multicast_packets(loop)
+            res['multicast_packets'] = loop.captured('multicast')
     res.update(one_host=one_host['observer_a'], t_down=t_down, t_up=t_up, multicast_routes=routes,
                packets={k: c1[k] - c0[k] for k in ('tx_packets', 'rx_packets')})
     return res
