@@ -204,15 +204,19 @@ def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
 
 def test_a_process_that_hangs_after_a_signal_is_ended_with_its_children(tmp_path):
     """The interruption lands where nothing polls and the code waits on (here: it is caught and ignored):
-    force_exit_after s after SIGTERM the stacks are printed, the child is stopped and the exit status is 130."""
+    force_exit_after s after SIGTERM the stacks are printed, the child is stopped and the exit status is 130.
+    The pid is printed inside the `try`, so the SIGTERM sent after reading it always lands where it is caught."""
     script = ('import sys, time\n'
               'from robot_control.tools import demo_procs\n'
               'demo_procs.install_signal_handlers(force_exit_after=1.0)\n'
               'child = demo_procs.ProcessSet().start("sleeper", [sys.executable, "-c", "import time; time.sleep(600)"],'
               ' dict(__import__("os").environ), sys.argv[1])\n'
-              'print("child", child.pid, flush=True)\n'
+              'ready = False\n'
               'while True:\n'
               '    try:\n'
+              '        if not ready:\n'
+              '            ready = True\n'
+              '            print("child", child.pid, flush=True)\n'
               '        time.sleep(600)\n'
               '    except KeyboardInterrupt:\n'
               '        pass\n')
