@@ -28,3 +28,12 @@ def big_endian(s):
             align(8)
             out += struct.pack(f'>{len(s[field])}d', *s[field])
     return bytes(out)
+
+
+def big_endian_wrench(stamp_ns, frame_id, force, torque):
+    """Hand-written big-endian CDR (encapsulation 0x00 0x00) of a geometry_msgs/WrenchStamped: `force` (3,) N and
+    `torque` (3,) N m."""
+    raw = frame_id.encode() + b'\x00'
+    out = bytearray(b'\x00\x00\x00\x00') + struct.pack('>iII', *divmod(stamp_ns, 10 ** 9), len(raw)) + raw
+    out.extend(bytes(-(len(out) - 4) % 8))
+    return bytes(out + struct.pack('>6d', *force, *torque))

@@ -1,4 +1,5 @@
-"""Fast codec for sensor_msgs/JointState in its serialized form (CDR, little endian).
+"""Fast codec for sensor_msgs/JointState and geometry_msgs/WrenchStamped in their serialized form
+(CDR, little endian).
 
 The bytes are those rclpy hands a subscription created with ``raw=True`` and those
 ``Publisher.publish(bytes)`` sends: a 4-byte encapsulation header (0x00 0x01 = CDR little
@@ -7,7 +8,10 @@ aligned from the body start (byte 4):
 
     int32 sec, uint32 nanosec, string frame_id,        # std_msgs/Header
     sequence<string> name,
-    sequence<double> position, velocity, effort
+    sequence<double> position, velocity, effort          # JointState
+
+    int32 sec, uint32 nanosec, string frame_id,        # std_msgs/Header
+    double force x, y, z, torque x, y, z                 # WrenchStamped (aligned to 8)
 
 A string is a uint32 length counting the terminating NUL, the UTF-8 bytes, then the NUL. A
 sequence is a uint32 count aligned to 4, then its items; doubles are aligned to 8, and an empty
@@ -20,8 +24,9 @@ such as rosbags insist on the exact size). rclpy leaves all padding unwritten, i
 garbage; the encoder writes zeros there. The decoder ignores padding and trailing bytes.
 
 No rclpy here: the caller falls back to ``rclpy.serialization`` when
-`JointStateDecoder.decode` returns None.
+`JointStateDecoder.decode` or `decode_wrench` returns None.
 """
+import collections
 import operator
 import struct
 
@@ -54,16 +59,11 @@ def _align8(off):
     return off + ((_BODY - off) & 7)
 
 
-class JointStateFrame(tuple):
-    """Read-only stand-in for a received sensor_msgs/JointState, with the same attribute names.
-
-    `.header.stamp.sec` (s), `.header.stamp.nanosec` (ns), `.header.frame_id` (str), `.name`
-    (list of str: may be the decoder's cached list, do not modify), `.position` (rad or m),
-    `.velocity` (rad/s or m/s), `.effort` (N*m or N): read-only float64 1-D arrays, possibly
-    views into the received buffer (tuples of float from a decoder made with arrays=False). To
-    stay light, `.header` and `.header.stamp` are the frame itself (one object per message), so
-    `.sec`, `.nanosec` and `.frame_id` also read directly.
-    """
+class StampedFrame(tuple):
+    """Read-only stand-in for a received message with a std_msgs/Header: `.header.stamp.sec` (s),
+    `.header.stamp.nanosec` (ns), `.header.frame_id` (str). To stay light, `.header` and
+    `.header.stamp` are the frame itself (one object per message), so `.sec`, `.nanosec` and
+    `.frame_id` also read directly."""
 
     __slots__ = ()
     header = property(lambda self: self, doc='std_msgs/Header stand-in: .stamp, .frame_id (the frame itself)')
@@ -71,6 +71,18 @@ class JointStateFrame(tuple):
     sec = property(operator.itemgetter(0), doc='stamp: whole seconds (s, int32)')
     nanosec = property(operator.itemgetter(1), doc='stamp: nanoseconds within the second (ns, < 1e9)')
     frame_id = property(operator.itemgetter(2), doc='frame id (str)')
+
+
+class JointStateFrame(StampedFrame):
+    """Read-only stand-in for a received sensor_msgs/JointState, with the same attribute names.
+
+    The header as `StampedFrame`; `.name` (list of str: may be the decoder's cached list, do not
+    modify), `.position` (rad or m), `.velocity` (rad/s or m/s), `.effort` (N*m or N): read-only
+    float64 1-D arrays, possibly views into the received buffer (tuples of float from a decoder
+    made with arrays=False).
+    """
+
+    __slots__ = ()
     name = property(operator.itemgetter(3), doc='joint names (list of str)')
     position = property(operator.itemgetter(4), doc='joint positions (rad or m), float64 array')
     velocity = property(operator.itemgetter(5), doc='joint velocities (rad/s or m/s), float64 array')
@@ -421,3 +433,74 @@ def _stamp(stamp_ns):
     if stamp_ns < 0 or sec > INT32_MAX:
         raise ValueError(f'stamp_ns: {stamp_ns} outside [0, {INT32_MAX} s]')
     return sec, nanosec
+
+
+# -- geometry_msgs/WrenchStamped ------------------------------------------------------------------
+Vector3Frame = collections.namedtuple('Vector3Frame', 'x y z')
+Vector3Frame.__doc__ = 'Read-only stand-in for a geometry_msgs/Vector3: .x, .y, .z (float).'
+_SIX = struct.Struct('<6d')
+
+
+class WrenchFrame(StampedFrame):
+    """Read-only stand-in for a received geometry_msgs/WrenchStamped, with the same attribute names.
+
+    The header as `StampedFrame`; `.wrench.force` (N) and `.wrench.torque` (N m) are `Vector3Frame`s.
+    `.wrench` is the frame itself, so `.force` and `.torque` also read directly."""
+
+    __slots__ = ()
+    wrench = property(lambda self: self, doc='geometry_msgs/Wrench stand-in: .force, .torque (the frame itself)')
+    force = property(operator.itemgetter(3), doc='force (N): Vector3Frame')
+    torque = property(operator.itemgetter(4), doc='torque (N m): Vector3Frame')
+
+    def __repr__(self):
+        return (f'WrenchFrame(sec={self.sec}, nanosec={self.nanosec}, frame_id={self.frame_id!r}, '
+                f'force={tuple(self.force)}, torque={tuple(self.torque)})')
+
+
+def decode_wrench(buf):
+    """`WrenchFrame` of the CDR bytes `buf`, or None (never raises) if they are not a well-formed
+    little-endian CDR WrenchStamped; trailing bytes after the torque are ignored."""
+    try:
+        buf = buf if type(buf) is bytes else bytes(buf)
+        encoding, kind, sec, nanosec = _HEAD.unpack_from(buf)
+        if encoding != 0 or kind != 1:
+            return None
+        frame_id, off = _string(buf, _FRAME_ID, len(buf))
+        fx, fy, fz, tx, ty, tz = _SIX.unpack_from(buf, _align8(off))
+    except _ERRORS:
+        return None
+    return tuple.__new__(WrenchFrame, (sec, nanosec, frame_id, tuple.__new__(Vector3Frame, (fx, fy, fz)),
+                                       tuple.__new__(Vector3Frame, (tx, ty, tz))))
+
+
+class WrenchEncoder:
+    """Serializes geometry_msgs/WrenchStamped with a fixed frame_id into CDR bytes: byte-identical to
+    what a typed publish of the same message puts on the wire (padding as zeros)."""
+
+    __slots__ = ('_buf', '_data')
+
+    def __init__(self, frame_id=''):
+        """`frame_id`: the header's frame (str without NUL); ValueError naming 'frame_id' otherwise."""
+        if not isinstance(frame_id, str) or '\x00' in frame_id:
+            raise ValueError(f'frame_id: must be a str without NUL, got {frame_id!r}')
+        raw = frame_id.encode()
+        out = bytearray(b'\x00\x01\x00\x00') + bytes(8) + _U32.pack(len(raw) + 1) + raw + b'\x00'
+        _pad(out, _align8)
+        self._data = len(out)
+        self._buf = out + bytes(_SIX.size)
+
+    def encode(self, stamp_ns, force, torque):
+        """CDR bytes of the WrenchStamped stamped `stamp_ns` (int ns since the epoch, >= 0) with `force`
+        (3 numbers, N) and `torque` (3 numbers, N m), e.g. float64 (3,) arrays. ValueError names the
+        offending argument; nothing is written then. Returns a fresh bytes object."""
+        sec, nanosec = _stamp(stamp_ns)
+        for name, value in (('force', force), ('torque', torque)):
+            if len(value) != 3:
+                raise ValueError(f'{name}: expected 3 numbers, got {len(value)}')
+        try:
+            data = _SIX.pack(*force, *torque)
+        except struct.error as exc:
+            raise ValueError(f'force, torque: must be numbers ({exc})') from None
+        self._buf[self._data:] = data
+        _STAMP.pack_into(self._buf, _BODY, sec, nanosec)
+        return bytes(self._buf)

@@ -17,12 +17,13 @@ import textwrap
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import WrenchStamped
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 
-from cdr_helpers import big_endian
+from cdr_helpers import big_endian, big_endian_wrench
 from robot_control.ros import cdr
-from robot_control.ros.cdr import JointStateDecoder, JointStateEncoder, JointStateFrame
+from robot_control.ros.cdr import JointStateDecoder, JointStateEncoder, JointStateFrame, WrenchEncoder, WrenchFrame
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 IIWA = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
@@ -50,10 +51,11 @@ print(json.dumps([serialize_message(message(spec)).hex() for spec in json.load(s
 '''
 
 
-def rclpy_bytes(specs, fill):
-    """serialize_message of each spec in a child whose fresh heap memory reads `fill` (a byte)."""
+def rclpy_bytes(specs, fill, child=CHILD):
+    """serialize_message of each spec in a child whose fresh heap memory reads `fill` (a byte); `child`: the
+    script that reads the specs and prints the hex of each message (CHILD: JointState, WRENCH_CHILD)."""
     env = dict(os.environ, GLIBC_TUNABLES=f'glibc.malloc.tcache_count=0:glibc.malloc.perturb={fill ^ 0xFF}')
-    out = subprocess.run([sys.executable, '-c', CHILD], input=json.dumps(specs), env=env, cwd=ROOT,
+    out = subprocess.run([sys.executable, '-c', child], input=json.dumps(specs), env=env, cwd=ROOT,
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     return [bytes.fromhex(h) for h in json.loads(out.stdout.strip().splitlines()[-1])]
@@ -432,3 +434,131 @@ def test_decode_of_the_cached_names_still_checks_what_follows():
 @pytest.mark.parametrize('thing', [None, 42, 'text', b'', b'\x00\x01\x00\x00', [0, 1, 0, 0]])
 def test_non_messages_return_none(thing):
     assert JointStateDecoder().decode(thing) is None
+
+
+# --- geometry_msgs/WrenchStamped ----------------------------------------------------------------------------
+
+
+def wrench_message(spec):
+    """geometry_msgs/WrenchStamped of a JSON-able spec dict: stamp_ns, frame_id, force, torque (also run in
+    the child interpreter)."""
+    from geometry_msgs.msg import WrenchStamped
+    msg = WrenchStamped()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(spec['stamp_ns'], 10 ** 9)
+    msg.header.frame_id = spec['frame_id']
+    f, t = msg.wrench.force, msg.wrench.torque
+    (f.x, f.y, f.z), (t.x, t.y, t.z) = spec['force'], spec['torque']
+    return msg
+
+
+WRENCH_CHILD = textwrap.dedent(inspect.getsource(wrench_message)) + '''
+import json, sys
+from rclpy.serialization import serialize_message
+print(json.dumps([serialize_message(wrench_message(spec)).hex() for spec in json.load(sys.stdin)]))
+'''
+
+
+def wrench_spec(stamp_ns=0, frame_id='', force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)):
+    return {'stamp_ns': stamp_ns, 'frame_id': frame_id, 'force': list(force), 'torque': list(torque)}
+
+
+def assert_same_wrench(frame, msg):
+    """Every field of the decoded `frame` equals the rclpy message `msg` exactly."""
+    assert isinstance(frame, WrenchFrame)
+    assert (frame.header.stamp.sec, frame.header.stamp.nanosec, frame.header.frame_id) == \
+        (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id)
+    for part in ('force', 'torque'):
+        got, want = getattr(frame.wrench, part), getattr(msg.wrench, part)
+        assert all(type(v) is float for v in got), part
+        assert bits([got.x, got.y, got.z]) == bits([want.x, want.y, want.z]), part
+
+
+@pytest.fixture(scope='module')
+def wrenches():
+    """(our bytes, spec): frame_ids of every length 0..9 (every padding before the doubles), unicode, every stamp,
+    random and special values, given as lists, tuples and float64 arrays."""
+    rng = random.Random(5)
+    frame_ids = ['abcdefghi'[:k] for k in range(10)] + ['tool0_ä', '関節🤖', random_text(rng, 20)]
+    cases = []
+    for frame_id in frame_ids:
+        encoder = WrenchEncoder(frame_id)
+        for i, stamp in enumerate(STAMPS):
+            force, torque = random_values(rng, 3), random_values(rng, 3)
+            given = [(force, torque), (tuple(force), tuple(torque)), (np.array(force), np.array(torque))][i % 3]
+            cases.append((encoder.encode(stamp, *given), wrench_spec(stamp, frame_id, force, torque)))
+    return cases
+
+
+def test_wrench_encoder_output_is_byte_identical_to_serialize_message(wrenches):
+    theirs = rclpy_bytes([s for _, s in wrenches], fill=0x00, child=WRENCH_CHILD)
+    for (mine, s), ref in zip(wrenches, theirs):
+        assert mine == ref, s
+
+
+def test_the_wrench_bytes_rclpy_leaves_unwritten_are_the_zero_padding_we_write(wrenches):
+    theirs = rclpy_bytes([s for _, s in wrenches], fill=0x55, child=WRENCH_CHILD)
+    unwritten = 0
+    for (mine, s), ref in zip(wrenches, theirs):
+        differ = [i for i, (a, b) in enumerate(zip(mine, ref)) if a != b]
+        assert len(ref) == len(mine) and all(mine[i] == 0 and ref[i] == 0x55 for i in differ), s
+        unwritten += len(differ)
+    assert unwritten > 0
+
+
+def test_wrench_decode_equals_deserialize_message(wrenches):
+    rclpy_made = [serialize_message(wrench_message(s)) for _, s in wrenches]   # its padding: whatever the heap held
+    for buf in [b for b, _ in wrenches] + rclpy_made:
+        assert_same_wrench(cdr.decode_wrench(buf), deserialize_message(buf, WrenchStamped))
+    buf = WrenchEncoder('tcp').encode(7_000_000_008, [1.0, -2.0, 3.5], (0.0, 0.25, -1e3))
+    frame = cdr.decode_wrench(bytearray(buf))
+    assert (frame.sec, frame.nanosec, frame.frame_id, frame.force, frame.torque) == \
+        (7, 8, 'tcp', (1.0, -2.0, 3.5), (0.0, 0.25, -1e3))
+    assert (frame.wrench.force.z, frame.wrench.torque.y) == (3.5, 0.25)
+    with pytest.raises(AttributeError):
+        frame.force.x = 0.0
+
+
+def test_wrench_encode_keeps_nothing_of_a_refused_call():
+    encoder = WrenchEncoder('world')
+    first = encoder.encode(5, (1.0, 2.0, 3.0), (4.0, 5.0, 6.0))
+    for args, match in [((5, (1.0, 2.0), (4.0, 5.0, 6.0)), '^force: expected 3 numbers, got 2'),
+                        ((5, (1.0, 2.0, 3.0), np.zeros(4)), '^torque: expected 3 numbers, got 4'),
+                        ((5, (1.0, 'x', 3.0), (4.0, 5.0, 6.0)), '^force, torque: must be numbers'),
+                        ((-1, (1.0, 2.0, 3.0), (4.0, 5.0, 6.0)), '^stamp_ns:'),
+                        ((0.5, (1.0, 2.0, 3.0), (4.0, 5.0, 6.0)), '^stamp_ns: must be an int')]:
+        with pytest.raises(ValueError, match=match):
+            encoder.encode(*args)
+    assert encoder.encode(5, (1.0, 2.0, 3.0), (4.0, 5.0, 6.0)) == first
+    for frame_id in (None, 3, 'a\x00b'):
+        with pytest.raises(ValueError, match='^frame_id:'):
+            WrenchEncoder(frame_id)
+
+
+def test_wrench_decoder_declines_what_is_not_little_endian_cdr_wrench():
+    s = wrench_spec(5_000_000_006, 'fr', (1.0, 2.0, 3.0), (4.0, 5.0, 6.0))
+    buf = WrenchEncoder('fr').encode(5_000_000_006, s['force'], s['torque'])
+    assert (buf[16:19], len(buf)) == (b'fr\x00', 68)
+    big = big_endian_wrench(5_000_000_006, 'fr', s['force'], s['torque'])
+    assert_same_wrench(cdr.decode_wrench(buf), deserialize_message(big, WrenchStamped))  # rclpy reads big endian
+    assert cdr.decode_wrench(big) is None
+    for header in (b'\x01\x00', b'\x00\x03', b'\x01\x01'):
+        assert cdr.decode_wrench(header + buf[2:]) is None, header
+    bad_strings = {'invalid utf-8 frame_id': put(buf, 16, b'\xc3('), 'NUL inside': put(buf, 16, b'\x00'),
+                   'no NUL at the end': put(buf, 18, b'X'), 'zero length': put(buf, 12, struct.pack('<I', 0)),
+                   'length past the end': put(buf, 12, struct.pack('<I', 2 ** 31))}
+    for what, bad in bad_strings.items():
+        assert cdr.decode_wrench(bad) is None, what
+    for thing in (None, 42, 'text', b'', b'\x00\x01\x00\x00', [0, 1, 0, 0]):
+        assert cdr.decode_wrench(thing) is None, thing
+
+
+def test_every_wrench_truncation_returns_none_unless_rclpy_accepts_it_too():
+    for frame_id in ('', 'abc', 'abcdefgh'):
+        buf = WrenchEncoder(frame_id).encode(3, (1.0, 2.0, 3.0), (4.0, 5.0, 6.0))
+        for length in range(len(buf)):
+            try:
+                want = deserialize_message(buf[:length], WrenchStamped)
+            except Exception:
+                assert cdr.decode_wrench(buf[:length]) is None, (frame_id, length)
+                continue
+            assert_same_wrench(cdr.decode_wrench(buf[:length]), want)
