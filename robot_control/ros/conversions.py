@@ -323,19 +323,23 @@ def _six(msg):
 
 
 def wrench_force(msg, axes, out=None):
-    """The components of a geometry_msgs/WrenchStamped along task `axes`: force on 'x'|'y'|'z' (N), torque
-    on 'rx'|'ry'|'rz' (N m); ArgumentError naming wrench.force or wrench.torque."""
+    """The components of a geometry_msgs/WrenchStamped (or a robot_control.ros.cdr.WrenchFrame) along task
+    `axes`: force on 'x'|'y'|'z' (N), torque on 'rx'|'ry'|'rz' (N m), as a float64 array (into `out` if
+    given); ArgumentError naming wrench.force or wrench.torque when one of those components is not finite
+    or beyond +-MAX_ABS."""
     idx = _axis_indices(axes)
     six = _six(msg)
-    out = np.empty(len(idx)) if out is None else out
-    for k, i in enumerate(idx):
-        out[k] = six[i]
-    for part, lo, unit in (('wrench.force', 0, 'N'), ('wrench.torque', 3, 'N m')):
-        mine = [k for k, i in enumerate(idx) if lo <= i < lo + 3]
-        if not np.isfinite(out[mine]).all():
-            raise ArgumentError(part, f'not finite {list(six[lo:lo + 3])}')
-        if not _plausible(out[mine]):
-            raise ArgumentError(part, f'implausible magnitude (> {MAX_ABS:g} {unit}) {list(six[lo:lo + 3])}')
+    values = [six[i] for i in idx]
+    if values and not _sane(values):
+        for part, lo, unit in (('wrench.force', 0, 'N'), ('wrench.torque', 3, 'N m')):
+            mine = [six[i] for i in idx if lo <= i < lo + 3]
+            if not all(map(math.isfinite, mine)):
+                raise ArgumentError(part, f'not finite {list(six[lo:lo + 3])}')
+            if mine and not _sane(mine):
+                raise ArgumentError(part, f'implausible magnitude (> {MAX_ABS:g} {unit}) {list(six[lo:lo + 3])}')
+    if out is None:
+        return np.array(values, dtype=_F64)
+    out[:] = values
     return out
 
 
