@@ -22,8 +22,8 @@ subscribers too); /diagnostics DIAGNOSTICS_QOS (RELIABLE, KEEP_LAST 10). Timers 
 steady clock, so `use_sim_time: true` given to this node by a shared YAML is harmless.
 
 Speed: robot_joint_commands is taken as serialized bytes and read by robot_control.ros.cdr (rclpy
-decodes what that declines); joint_states is a preallocated serialized message written from the
-World's state as floats. joint_states goes out before /clock and the bookkeeping.
+decodes what that declines); joint_states and ft_sensor/wrench are preallocated serialized messages
+written from the World's state as floats. joint_states goes out before /clock and the bookkeeping.
 
 `main` spins rclpy's C++ EventsExecutor by default (`--executor single` for the Python one).
 """
@@ -114,18 +114,14 @@ class SimBridge(ParameterNode):
             + ('' if cfg.lockstep else f', real-time factor {cfg.real_time_factor}'))
 
     def _make_messages(self, cfg):
-        """Preallocated messages: joint_states as serialized bytes (robot_control.ros.cdr, cheaper than
-        rclpy's conversion of a JointState), one Time shared by the other headers."""
+        """Preallocated messages: joint_states and ft_sensor/wrench as serialized bytes (robot_control.ros.cdr,
+        cheaper than rclpy's conversion of a message), the Time of /clock."""
         self._js_encoder = cdr.JointStateEncoder(self.joint_names)
         self._cmd_decoder = cdr.JointStateDecoder(arrays=False)          # efforts as floats: no numpy per tick
         self._stamp = conversions.ns_to_stamp(0)
         self._clock_msg = ClockMsg()
         self._clock_msg.clock = self._stamp
-        self._wrench = WrenchStamped()
-        self._wrench.header.stamp = self._stamp
-        self._wrench.header.frame_id = cfg.wrench_frame_id
-        self._force = self._wrench.wrench.force
-        self._torque = self._wrench.wrench.torque
+        self._wrench_encoder = cdr.WrenchEncoder(cfg.wrench_frame_id)
 
     def _make_interfaces(self):
         self._pub_clock = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
@@ -181,12 +177,8 @@ class SimBridge(ParameterNode):
         if not in_loop:
             self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0
         if self._wrench_wanted:
-            self._set_stamp(t)
             f, m = w.contact_wrench()
-            force, torque = self._force, self._torque
-            force.x, force.y, force.z = float(f[0]), float(f[1]), float(f[2])
-            torque.x, torque.y, torque.z = float(m[0]), float(m[1]), float(m[2])
-            self._pub_wrench.publish(self._wrench)
+            self._pub_wrench.publish(self._wrench_encoder.encode(t, f, m))
         self._pub_js.publish(self._js_encoder.encode(t, q, qd, tau))
         wall = time.monotonic_ns()
         if with_clock:
@@ -196,7 +188,7 @@ class SimBridge(ParameterNode):
         return wall
 
     def _set_stamp(self, t_ns):
-        """The Time shared by the /clock and ft_sensor/wrench messages."""
+        """The Time of the /clock message."""
         self._stamp.sec, self._stamp.nanosec = units.split_ns(t_ns)
 
     def _publish_diagnostics(self):

@@ -8,8 +8,8 @@ references, the watchdog, /diagnostics. The rclpy-free core decides: the time li
 of its own tick (core.pairing: a state waits in it, answered from the wrench callback or a one-shot
 timer), the law and its references (core.controller), the content of /diagnostics (core.status).
 
-joint_states is taken as serialized bytes and read by robot_control.ros.cdr (rclpy decodes what
-that declines, e.g. big-endian CDR); the command is written as serialized bytes too. Only reading
+joint_states and ft_sensor/wrench are taken as serialized bytes and read by robot_control.ros.cdr
+(rclpy decodes what that declines, e.g. big-endian CDR); the command is written as serialized bytes too. Only reading
 the state, the law and the publish run before the command goes out; the bookkeeping follows.
 """
 import time
@@ -177,7 +177,11 @@ class ControllerSession:
         if self._pairing.held is not None:
             self._wrench_timer.reset()
 
-    def _on_ft_sensor(self, msg):
+    def _on_ft_sensor_raw(self, data):
+        """ft_sensor/wrench as DDS delivered it: decoded by robot_control.ros.cdr, or by rclpy when the fast
+        decoder declines."""
+        msg = cdr.decode_wrench(data)
+        msg = deserialize_message(data, WrenchStamped) if msg is None else msg
         try:
             f = conversions.wrench_force(msg, self._task_axes)
         except ValueError as exc:  # keep the last valid measurement
@@ -293,8 +297,8 @@ class ControllerSession:
             self._f_meas[:] = 0.0
             self.counters.wrench_seen = False
             self._pairing = WrenchPairing()
-            self._ft_sub = self._node.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor,
-                                                    CONTROL_QOS)
+            self._ft_sub = self._node.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor_raw,
+                                                          CONTROL_QOS, raw=True)
         elif not needed and self._ft_sub is not None:
             self._node.destroy_subscription(self._ft_sub)
             self._ft_sub = None

@@ -25,8 +25,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from cdr_helpers import big_endian
+from cdr_helpers import big_endian, big_endian_wrench
 from robot_control import units
+from robot_control.ros import cdr
 from robot_control.ros import conversions as cv
 from robot_control.ros.controller_node import ControllerNode
 from robot_control.gains import ServoGains, design
@@ -391,6 +392,29 @@ def test_each_state_is_answered_with_the_wrench_published_before_it(ros_context)
             cmd, ref, err = robot.commands[stamp], robot.references[stamp], robot.errors[stamp]
             want = saturate(expected_law(q, qd, ref, err, np.array(f_k)), ctrl.core.config.effort_limit)[0]
             np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12, err_msg=f'tick {k}')
+
+
+def test_a_big_endian_wrench_is_used_like_a_little_endian_one(ros_context):
+    """ft_sensor/wrench arrives as bytes (robot_control.ros.cdr decodes it); a big-endian writer's is left to
+    rclpy's decoder, and the state of its tick is answered with that force."""
+    params, joints, q0, make_expected, _ = LAW_CASES['hybrid_sensor']
+    expected_law = make_expected(False)
+    with rig(ros_context, **params) as (ex, ctrl, robot):
+        assert spin_until(ex, lambda: robot.ft_pub.get_subscription_count() >= 1)
+        for k, (f_k, big) in enumerate([([2.5, 0.0], False), ([3.25, 0.0], True)]):
+            stamp = T0_NS + k * DT_NS
+            if big:
+                wrench = big_endian_wrench(stamp, 'world', [*f_k, 0.0], [0.0, 0.0, 0.0])
+                assert cdr.decode_wrench(wrench) is None
+            else:
+                wrench = cv.wrench_along(('x', 'y', 'z'), [*f_k, 0.0], stamp_ns=stamp)
+            robot.ft_pub.publish(wrench)
+            robot.state_pub.publish(robot.state(joints, q0, np.zeros(2), stamp))
+            assert spin_until(ex, lambda: all(stamp in s for s in (robot.commands, robot.references, robot.errors)))
+            cmd, ref, err = robot.commands[stamp], robot.references[stamp], robot.errors[stamp]
+            want = saturate(expected_law(q0, np.zeros(2), ref, err, np.array(f_k)), ctrl.core.config.effort_limit)[0]
+            np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12, err_msg=f'tick {k}')
+        assert ctrl.rejected['ft_sensor_wrench'] == 0
 
 
 def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_never_is(ros_context):
