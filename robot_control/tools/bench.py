@@ -201,9 +201,11 @@ def bench_laws(plan):
 
 
 def bench_transport(plan):
-    """B1 transport: a 7-joint sensor_msgs/JointState (positions, velocities, efforts; a new stamp and new
-    values each) from its CDR bytes, by the package's decoder (robot_control.ros.cdr) and by rclpy's
-    deserialize_message, interleaved round by round; the first round is a warm-up."""
+    """B1 transport: a 7-joint sensor_msgs/JointState (positions, velocities, efforts) and a
+    geometry_msgs/WrenchStamped (a new stamp and new values each) from their CDR bytes, by the package's
+    decoders (robot_control.ros.cdr) and by rclpy's deserialize_message, interleaved round by round; the
+    first round is a warm-up."""
+    from geometry_msgs.msg import WrenchStamped
     from rclpy.serialization import deserialize_message, serialize_message
     from sensor_msgs.msg import JointState
 
@@ -211,19 +213,25 @@ def bench_transport(plan):
 
     rng = np.random.default_rng(SEED)
     names = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
-    msgs = [serialize_message(conversions.joint_state(names, stamp_ns=1_000_000 * (k + 1), position=rng.normal(size=7),
-                                                      velocity=rng.normal(size=7), effort=rng.normal(size=7)))
-            for k in range(plan.law_calls)]
+    states = [serialize_message(conversions.joint_state(names, stamp_ns=1_000_000 * (k + 1),
+                                                        position=rng.normal(size=7), velocity=rng.normal(size=7),
+                                                        effort=rng.normal(size=7)))
+              for k in range(plan.law_calls)]
+    wrenches = [serialize_message(conversions.wrench_stamped(rng.normal(size=3), rng.normal(size=3),
+                                                             stamp_ns=1_000_000 * (k + 1), frame_id='world'))
+                for k in range(plan.law_calls)]
     decoder = cdr.JointStateDecoder()
-    cases = {'cdr': (decoder.decode, [(m,) for m in msgs]),
-             'rclpy': (deserialize_message, [(m, JointState) for m in msgs])}
+    cases = {'js7_decode_us_cdr': (decoder.decode, [(m,) for m in states]),
+             'js7_decode_us_rclpy': (deserialize_message, [(m, JointState) for m in states]),
+             'wrench_decode_us_cdr': (cdr.decode_wrench, [(m,) for m in wrenches]),
+             'wrench_decode_us_rclpy': (deserialize_message, [(m, WrenchStamped) for m in wrenches])}
     times = {name: [] for name in cases}
     for r in range(plan.law_rounds + 1):
         for name, (fn, inputs) in cases.items():
             time_calls(fn, inputs, times[name] if r else [])
     out = {}
     for name, ns in times.items():
-        out[f'js7_decode_us_{name}_median'], out[f'js7_decode_us_{name}_p99'] = median_p99_us(ns)
+        out[f'{name}_median'], out[f'{name}_p99'] = median_p99_us(ns)
     return out
 
 

@@ -28,6 +28,7 @@ KEYS = (
       for metric in ('1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
     'sim_steps_per_s_iiwa',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
+    'wrench_decode_us_cdr_median', 'wrench_decode_us_rclpy_median',
 )
 QUICK_TIMEOUT_S = 300
 
