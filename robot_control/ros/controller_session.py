@@ -9,8 +9,9 @@ of its own tick (core.pairing: a state waits in it, answered from the wrench cal
 timer), the law and its references (core.controller), the content of /diagnostics (core.status).
 
 joint_states and ft_sensor/wrench are taken as serialized bytes and read by robot_control.ros.cdr
-(rclpy decodes what that declines, e.g. big-endian CDR); the command is written as serialized bytes too. Only reading
-the state, the law and the publish run before the command goes out; the bookkeeping follows.
+(rclpy decodes what that declines, e.g. big-endian CDR); the command is written as serialized bytes
+too. Only reading the state, the law and the publish run before the command goes out; the
+bookkeeping follows.
 """
 import time
 
