@@ -448,11 +448,15 @@ class RealtimeLoop(BridgeLoop):
         self._command(self.mapper.map_array(values), ok)
 
     def _ignore_outdated(self, stamp_ns, t_ns):
+        """Count and log an outdated command: a warning once the loop has run on a valid command, information
+        before (the first state can reach a controller that has just joined late, held up while DDS matches
+        the two nodes; the brakes are on until a fresh command anyway)."""
         self.outdated_commands += 1
         if self._reject_throttle.ready(self._clock()):
-            self._log('warning', f'ignored a command answering the state of t = {stamp_ns / NS:.3f} s at '
-                                 f't = {t_ns / NS:.3f} s (older than command_timeout = {self.cfg.command_timeout} s); '
-                                 f'{self.outdated_commands} so far')
+            self._log('warning' if self._have_cmd else 'info',
+                      f'ignored a command answering the state of t = {stamp_ns / NS:.3f} s at t = {t_ns / NS:.3f} s '
+                      f'(older than command_timeout = {self.cfg.command_timeout} s); {self.outdated_commands} so far'
+                      + ('' if self._have_cmd else '; the brakes stay on until a fresh command'))
 
     def _command(self, reason, ok):
         """Hold a valid command; the next due tick applies it."""

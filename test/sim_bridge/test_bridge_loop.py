@@ -488,18 +488,45 @@ def test_realtime_ignores_a_command_answering_a_state_older_than_command_timeout
     """A command held up on the way (a network link that failed and came back) is counted and logged, never
     applied, and does not release the brakes; exactly command_timeout old is still in time."""
     loop, node = bridge(mode='realtime', command_timeout=0.05)
+    loop.on_joint_command(0, JOINTS, HOLD)                  # the loop ran, then the link failed
     for _ in range(20):
         node.now += 10 * MS
         loop.on_timer()
-    assert loop.world.t_ns == 200 * MS and loop.brake_reason == 'no command yet'
+    assert loop.world.t_ns == 200 * MS and loop.brake_reason.startswith('stale command')
     push = (POLAR.g(Q0) + [0.0, 50.0]).tolist()
     loop.on_joint_command(150 * MS - 1, JOINTS, push)
-    assert loop.outdated_commands == 1 and loop.mapper.accepted == 0 and loop.world.braked
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 1 and loop.world.braked
     assert statuses(loop)['commands'].values['outdated_commands'] == 1
     assert node.logs[-1] == ('warning', 'ignored a command answering the state of t = 0.150 s at t = 0.200 s '
                                         '(older than command_timeout = 0.05 s); 1 so far')
     loop.on_joint_command(150 * MS, JOINTS, HOLD)
-    assert loop.outdated_commands == 1 and loop.mapper.accepted == 1 and not loop.world.braked
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 2 and not loop.world.braked
+
+
+def test_an_outdated_first_command_is_information_not_a_warning(bridge):
+    """While the loop closes (no valid command since the start or a reset) an outdated command is part of the
+    start-up: the first state can reach a controller that joins late after a delay (DDS matching). It is
+    ignored and counted like any other, and logged as information; the next fresh command closes the loop."""
+    loop, node = bridge(mode='realtime', command_timeout=0.05)
+    for _ in range(20):
+        node.now += 10 * MS
+        loop.on_timer()
+    assert loop.brake_reason == 'no command yet'
+    loop.on_joint_command(150 * MS - 1, JOINTS, HOLD)
+    assert loop.outdated_commands == 1 and loop.mapper.accepted == 0 and loop.world.braked
+    assert node.logs[-1] == ('info', 'ignored a command answering the state of t = 0.150 s at t = 0.200 s '
+                                     '(older than command_timeout = 0.05 s); 1 so far; the brakes stay on until a '
+                                     'fresh command')
+    loop.on_joint_command(200 * MS, JOINTS, HOLD)
+    assert not loop.world.braked and node.logs[-1] == ('info', 'brakes released at t = 0.200 s: fresh command')
+    assert not [line for line in node.logs if line[0] != 'info']
+    loop.reset()                                             # a reset starts the loop over: information again
+    node.now += 1_000 * MS
+    for _ in range(20):
+        node.now += 10 * MS
+        loop.on_timer()
+    loop.on_joint_command(100 * MS, JOINTS, HOLD)
+    assert loop.outdated_commands == 2 and node.logs[-1][0] == 'info' and loop.world.braked
 
 
 def test_realtime_runs_the_ticks_due_on_the_wall_clock(bridge):
