@@ -97,6 +97,10 @@ class BridgeLoop(abc.ABC):
     - publish_diagnostics(): publish `diagnostics()` now.
     - log(level, text): level 'info' or 'warning'.
     - clock() -> wall time, ns (monotonic).
+    - restart_timer(): start the period of the pacing timer over now. Realtime calls it right after
+      anchoring its pacing (start, reset, resume, a new real_time_factor), so that the timer's calls
+      come just after the ticks fall due: a call then runs one tick, and only a call more than a
+      period late runs two back to back. Optional (default: nothing).
 
     The node calls on_joint_command, on_array_command, on_timer (a steady timer: lockstep every
     lockstep_timeout / 4, realtime every control period of wall time), pause, reset,
@@ -106,7 +110,7 @@ class BridgeLoop(abc.ABC):
     """
 
     def __init__(self, world, cfg, *, publish_state, count_publishers, publish_diagnostics, log,
-                 clock=time.monotonic_ns):
+                 clock=time.monotonic_ns, restart_timer=lambda: None):
         self.world = world
         self.cfg = cfg
         self._publish_state = publish_state
@@ -114,6 +118,7 @@ class BridgeLoop(abc.ABC):
         self._publish_diagnostics = publish_diagnostics
         self._log = log
         self._clock = clock
+        self._restart_timer = restart_timer
         self._substeps = cfg.substeps
         self._control_ns = cfg.control_period_ns
         self._clock_period_ns = cfg.clock_period_ns
@@ -428,6 +433,7 @@ class RealtimeLoop(BridgeLoop):
         super().configure(cfg)
         if cfg.real_time_factor != old.real_time_factor:     # re-anchored now: no tick lost
             self._pacer.set_real_time_factor(cfg.real_time_factor, self._clock(), self.ticks)
+            self._restart_timer()
 
     def on_joint_command(self, stamp_ns, names, efforts):
         """Held until the next valid one; the deadline meter times its answer to the latest state. One
@@ -506,6 +512,7 @@ class RealtimeLoop(BridgeLoop):
         """Re-anchor pacing at the wall clock: no burst of ticks follows the pause."""
         now = self._clock()
         self._pacer.anchor(now, self.ticks)
+        self._restart_timer()
         self._rate.reset(now, self.world.t_ns)
 
     def _restart(self):
@@ -513,6 +520,7 @@ class RealtimeLoop(BridgeLoop):
         self._update_brakes(t, log=False)
         now = self._clock()
         self._pacer.anchor(now, 0)
+        self._restart_timer()
         self._rate.reset(now, t)
         super()._restart()
 

@@ -99,7 +99,8 @@ class SimBridge(ParameterNode):
         self._make_interfaces()
         self._loop = make_loop(self._world, cfg, publish_state=self._publish_state,
                                count_publishers=self._count_command_publishers,
-                               publish_diagnostics=self._publish_diagnostics, log=self._log)
+                               publish_diagnostics=self._publish_diagnostics, log=self._log,
+                               restart_timer=self._restart_pace_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._graph_timer = self.create_timer(GRAPH_PERIOD, self._loop.refresh_publisher_counts, clock=steady)
         self._diag_timer = self.create_timer(cfg.diagnostics_period, self._publish_diagnostics, clock=steady)
@@ -156,6 +157,10 @@ class SimBridge(ParameterNode):
         if not cfg.lockstep and cfg.real_time_factor != old.real_time_factor:
             self.destroy_timer(self._pace_timer)
             self._pace_timer = self.create_timer(self._realtime_timer_period(), self._loop.on_timer, clock=steady)
+
+    def _restart_pace_timer(self):
+        """The loop anchored its pacing: the pacing timer's calls follow from now (see BridgeLoop)."""
+        self._pace_timer.reset()
 
     def _realtime_timer_period(self):
         # one control tick of wall time, but no faster than 2 kHz: the loop runs what is due

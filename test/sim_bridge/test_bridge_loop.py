@@ -302,6 +302,7 @@ class FakeNode:
         self.states = []                  # (t_ns, in_loop, with_clock, effort applied)
         self.diagnostics = 0
         self.logs = []                    # (level, text)
+        self.timer_restarts = []          # wall ns of each restart_timer()
 
     def clock(self):
         return self.now
@@ -320,6 +321,9 @@ class FakeNode:
     def log(self, level, text):
         self.logs.append((level, text))
 
+    def restart_timer(self):
+        self.timer_restarts.append(self.now)
+
 
 @pytest.fixture
 def bridge():
@@ -331,7 +335,8 @@ def bridge():
         worlds.append(World('polar_two_link', dt=cfg.physics_step))
         node = FakeNode(worlds[-1])
         loop = make_loop(worlds[-1], cfg, publish_state=node.publish_state, count_publishers=node.count_publishers,
-                         publish_diagnostics=node.publish_diagnostics, log=node.log, clock=node.clock)
+                         publish_diagnostics=node.publish_diagnostics, log=node.log, clock=node.clock,
+                         restart_timer=node.restart_timer)
         loop.start()
         return loop, node
     yield make
@@ -549,6 +554,39 @@ def test_realtime_runs_the_ticks_due_on_the_wall_clock(bridge):
     assert loop.ticks == 26
     pacing = statuses(loop)['pacing']
     assert pacing.level == 'WARN' and pacing.message == 'realtime x2.0: 1 overruns (stalls > 0.1 s)'
+
+
+def test_realtime_restarts_the_timer_as_it_anchors_so_that_each_call_runs_one_tick(bridge):
+    """The pacing timer is restarted at each anchoring of the pacing (start, resume, a new real_time_factor,
+    reset), so its calls come whole periods after it: each finds exactly one tick due, even 0.9 period late.
+    (A timer whose calls came just before the ticks fell due would find none, run each a period late, and
+    run two back to back whenever a call came a little late.)"""
+    loop, node = bridge(mode='realtime')
+    loop.on_joint_command(0, JOINTS, HOLD)
+
+    def one_tick_per_call(period_ns, calls=20):
+        start, ticks = node.timer_restarts[-1], loop.ticks
+        for n in range(1, calls + 1):
+            node.now = start + n * period_ns + round(0.9 * period_ns)
+            loop.on_timer()
+            assert loop.ticks == ticks + n, (period_ns, n)
+
+    assert node.timer_restarts == [1_000 * MS]              # at the start
+    one_tick_per_call(MS)
+    loop.pause(True)
+    node.now += 123_456_789
+    loop.pause(False)
+    assert node.timer_restarts[-1] == node.now              # resumed
+    one_tick_per_call(MS)
+    node.now += 333_333
+    loop.configure(dataclasses.replace(loop.cfg, real_time_factor=2.0))
+    assert node.timer_restarts[-1] == node.now              # a new real-time factor: a tick every 0.5 ms
+    one_tick_per_call(MS // 2)
+    node.now += 777_777
+    loop.reset()
+    assert node.timer_restarts[-1] == node.now and loop.ticks == 0
+    one_tick_per_call(MS // 2)
+    assert len(node.timer_restarts) == 4
 
 
 def test_realtime_pause_stands_still_and_resumes_without_a_burst(bridge):

@@ -190,6 +190,33 @@ def test_pause_freezes_the_clock_in_realtime(harness):
     assert h.spin_until(lambda: h.probe.clock[-1] >= t_paused + 30 * MS)
 
 
+def test_realtime_pacing_timer_calls_come_just_after_the_ticks_fall_due(harness):
+    """The pacing timer restarts as the loop anchors its pacing (start, resume, reset, a new real_time_factor),
+    so its calls come just after the ticks fall due, not up to a period before (where a call finds no tick due,
+    runs it a period late, and runs two back to back whenever it comes a little late)."""
+    h = harness(hold_polar, mode='realtime')
+
+    def lead_ms():
+        """How long after the next tick falls due the timer's next call comes, modulo the tick period (ms)."""
+        loop, timer = h.bridge._loop, h.bridge._pace_timer
+        period = h.bridge.cfg.control_period_ns / h.bridge.cfg.real_time_factor
+        due = loop._pacer.next_due_wall_ns(loop.ticks)
+        call = time.monotonic_ns() + timer.time_until_next_call()
+        return ((call - due + 0.05 * MS) % period - 0.05 * MS) / MS   # a few us early: the two clock reads
+
+    leads = [lead_ms()]                                          # at the start
+    assert h.spin_until(lambda: h.bridge.world.t_ns >= 50 * MS)
+    assert h.pause(True).success
+    h.spin_for(0.0123)
+    assert h.pause(False).success
+    leads.append(lead_ms())
+    assert h.reset().success
+    leads.append(lead_ms())
+    assert h.bridge.set_parameters([Parameter('real_time_factor', value=2.0)])[0].successful
+    leads.append(lead_ms())
+    assert all(-0.05 <= lead <= 0.3 for lead in leads), leads
+
+
 # -- item 5: determinism -------------------------------------------------------------------------
 def _pd(q_d, kp, kv):
     q_d = np.asarray(q_d, dtype=float)
