@@ -227,6 +227,13 @@ def _stamp_reached(loop, stamp_ns):
     return p is not None and p['stamp_ns'] is not None and p['stamp_ns'] >= stamp_ns
 
 
+def _commands_seen(loop, count):
+    """The observer on host a has received `count` commands: it may match the controller's writer across the
+    link well after the bridge's (the suite once saw it join 367 ticks into the loop)."""
+    p = loop.progress('a')
+    return p is not None and p['commands'] >= count
+
+
 @pytest.fixture(scope='module')
 def lockstep():
     """Two lockstep runs: both nodes on one host (the reference), then across the link with unicast
@@ -247,7 +254,8 @@ def lockstep():
             loop.observer('a', ('joint_states', 'commands', 'diagnostics'))
             loop.node('bridge', 'a', 'sim_bridge.bridge_node', mode='lockstep')
             loop.node('controller', 'b', 'robot_control.ros.controller_node', q_d=Q_D)
-            loop.wait_for(lambda: _stamp_reached(loop, T_OUTAGE), STARTUP, 'the lockstep loop across the link')
+            loop.wait_for(lambda: _stamp_reached(loop, T_OUTAGE) and _commands_seen(loop, T_OUTAGE // PERIOD_NS),
+                          STARTUP, 'the lockstep loop across the link')
             t_down, t_up = loop.outage(OUTAGE)
             loop.run_for(1.5)
             c1 = net.counters('a')
