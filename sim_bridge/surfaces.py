@@ -120,10 +120,13 @@ class Wall:
     def wrench(self, robot):
         """(force (3,) N, torque (3,) N m): exerted by the robot on the surface, world axes,
         torque about the world origin; zeros without contact. Valid after a step."""
-        force, torque = np.zeros(3), np.zeros(3)
+        fx = fy = fz = mx = my = mz = 0.0
         for cp in p.getContactPoints(bodyA=robot, bodyB=self.body, physicsClientId=self.client):
-            # contactNormalOnB points from the surface to the robot: the robot pushes along -normal
-            f = -(cp[9] * np.asarray(cp[7]) + cp[10] * np.asarray(cp[11]) + cp[12] * np.asarray(cp[13]))
-            force += f
-            torque += np.cross(np.asarray(cp[6]), f)
-        return force, torque
+            # f = -(f_n n + f_1 d_1 + f_2 d_2), n = contactNormalOnB (from the surface to the robot: the
+            # robot pushes along -n), d_1, d_2 the friction directions; torque r x f, r = positionOnB
+            (nx, ny, nz), _distance, fn, f1, (ax, ay, az), f2, (bx, by, bz) = cp[7:14]
+            x, y, z = -(fn * nx + f1 * ax + f2 * bx), -(fn * ny + f1 * ay + f2 * by), -(fn * nz + f1 * az + f2 * bz)
+            rx, ry, rz = cp[6]
+            fx, fy, fz = fx + x, fy + y, fz + z
+            mx, my, mz = mx + ry * z - rz * y, my + rz * x - rx * z, mz + rx * y - ry * x
+        return np.array([fx, fy, fz]), np.array([mx, my, mz])
