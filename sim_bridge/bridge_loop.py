@@ -16,7 +16,7 @@ Pacing (`cfg.mode`):
   A rejected command still completes the handshake: the step runs with the last valid command
   (brakes if there is none), so a faulty controller cannot stall the simulation.
 - realtime (RealtimeLoop): a timer runs the control ticks that are due at real_time_factor
-  (sim_bridge.loop.RealtimePacer; it re-anchors after a stall of more than 0.1 s rather than
+  (sim_bridge.pacing.RealtimePacer; it re-anchors after a stall of more than 0.1 s rather than
   bursting). The latest valid command is held; no valid command for command_timeout of
   simulation time (or none yet) engages the World's brakes, a fresh command releases them. A
   JointState command stamped (the state it answers) more than command_timeout before the current
@@ -32,7 +32,7 @@ at t = 0 and forgets the command.
 
 Bad commands (unknown, missing or duplicate joint names, wrong lengths, NaN or inf) never reach
 the World: a throttled warning, a count per reason, and the last valid command (or the brakes)
-stays in force. Mixing sources is refused (sim_bridge.loop.SourceGuard): more than one publisher
+stays in force. Mixing sources is refused (sim_bridge.pacing.SourceGuard): more than one publisher
 on a command topic (counted by the node's graph on `refresh_publisher_counts`, and whenever a
 lockstep state is answered twice) or commands on both command topics (evidence again with every
 command while the graph still shows publishers on both) engage the brakes until command_timeout of
@@ -55,7 +55,7 @@ import numpy as np
 from robot_control import units
 from robot_control.core.throttle import Throttle
 from robot_control.validation import ArgumentError
-from sim_bridge.loop import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter, RealtimePacer,
+from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard)
 
 NS = units.NS_PER_S
@@ -86,7 +86,7 @@ class Status:
 
 class BridgeLoop(abc.ABC):
     """The bridge's decisions over `world` (a sim_bridge.world.World) for `cfg` (a validated
-    sim_bridge.parameters.BridgeConfig): the parts both modes share. Make one with `make_loop`.
+    sim_bridge.bridge_params.BridgeConfig): the parts both modes share. Make one with `make_loop`.
 
     Callbacks into the node:
     - publish_state(in_loop, with_clock) -> wall_ns: publish the World's current state

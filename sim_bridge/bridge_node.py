@@ -13,7 +13,7 @@ as robot_state_publisher offers it). Subscribes `robot_joint_commands` (sensor_m
 matched by name) and `effort_controller/commands` (std_msgs/Float64MultiArray in `joints` order).
 Services `~/reset` (std_srvs/Trigger) and `~/pause` (std_srvs/SetBool). The publishers on the
 command topics are counted every 0.1 s of wall time. The node never reads a parameter in the
-loop: it works on a validated snapshot (sim_bridge.parameters.BridgeConfig) that the parameter
+loop: it works on a validated snapshot (sim_bridge.bridge_params.BridgeConfig) that the parameter
 callbacks replace.
 
 QoS: joint_states, ft_sensor/wrench and both command topics robot_control.ros.qos.CONTROL_QOS
@@ -47,10 +47,10 @@ from std_srvs.srv import SetBool, Trigger
 from robot_control import scenarios, units
 from robot_control.ros import cdr, conversions, spin
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
-from robot_control.ros.param_table import ParameterError
+from robot_control.param_table import ParameterError
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DESCRIPTION_QOS, DIAGNOSTICS_QOS
 from robot_control.validation import ArgumentError
-from sim_bridge import parameters as bridge_params
+from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import COMMAND_TOPICS, make_loop
 
 stamp_ns = units.stamp_ns

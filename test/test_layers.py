@@ -20,9 +20,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core']
 NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
          'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.core.throttle',
-         'robot_control.ros.param_table', 'robot_control.ros.params', 'robot_control.ros.controller_config',
-         'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.loop',
-         'sim_bridge.bridge_loop', 'sim_bridge.parameters']
+         'robot_control.param_table', 'robot_control.ros.controller_params', 'robot_control.ros.config_builder',
+         'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.pacing',
+         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params']
 PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces'}
 
 
@@ -54,7 +54,7 @@ def _forbidden(module, allow_pybullet):
 
 def test_the_layer_list_holds_the_laws_and_models():
     assert {'robot_control.laws.hybrid', 'robot_control.laws.servo', 'robot_control.models.closed_form',
-            'robot_control.core.controller', 'sim_bridge.loop'} <= set(LIBRARY)
+            'robot_control.core.controller', 'sim_bridge.pacing'} <= set(LIBRARY)
 
 
 def _loaded(name):
@@ -91,7 +91,7 @@ ABOVE = {
 
 
 def _layer(name):
-    if name.startswith('robot_control.ros') or name == 'sim_bridge.parameters':
+    if name.startswith('robot_control.ros') or name == 'sim_bridge.bridge_params':
         return None            # parameter tables: the ROS layer's, rclpy-free but above the core
     if name.startswith('sim_bridge'):
         return 'sim'
@@ -117,5 +117,5 @@ def test_library_module_imports_no_layer_above_its_own(name):
 def test_the_layer_check_detects_an_upward_import():
     assert _upward('robot_control.laws.hybrid', ['robot_control.laws.hybrid', 'robot_control.core.config'])
     assert _upward('robot_control.core.controller', ['robot_control.ros.qos'])
-    assert _upward('sim_bridge.loop', ['sim_bridge.bridge_node'])
-    assert not _upward('sim_bridge.loop', ['sim_bridge', 'sim_bridge.world', 'robot_control.models'])
+    assert _upward('sim_bridge.pacing', ['sim_bridge.bridge_node'])
+    assert not _upward('sim_bridge.pacing', ['sim_bridge', 'sim_bridge.world', 'robot_control.models'])

@@ -43,9 +43,9 @@ engages its brakes in realtime mode and waits in lockstep mode); cleanup and shu
 everything. With autostart (default true) the node configures and activates itself, so `ros2 run`
 starts a controller; invalid parameters then end the process with code 1.
 
-Parameters: the table robot_control.ros.params, declared and checked by the parameter engine
+Parameters: the table robot_control.ros.controller_params, declared and checked by the parameter engine
 (robot_control.ros.param_engine; a refusal's reason names the parameter), built into a
-ControllerConfig by robot_control.ros.controller_config; a run-time change is applied by swapping
+ControllerConfig by robot_control.ros.config_builder; a run-time change is applied by swapping
 the core's configuration. A start-up parameter the controller does not have is refused.
 
 Run: python -m robot_control.ros.controller_node --ros-args --params-file config/polar_two_link.yaml
@@ -56,11 +56,11 @@ import rclpy
 from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
 from std_msgs.msg import String
 
-from robot_control.ros import params, spin
-from robot_control.ros.controller_config import ConfigBuilder
+from robot_control.ros import controller_params as params, spin
+from robot_control.ros.config_builder import ConfigBuilder
 from robot_control.ros.controller_session import ControllerSession
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
-from robot_control.ros.param_table import ParameterError
+from robot_control.param_table import ParameterError
 from robot_control.ros.qos import DESCRIPTION_QOS
 
 

@@ -1,4 +1,4 @@
-"""The parameter engine: a node's table (robot_control.ros.param_table) declared on an rclpy node.
+"""The parameter engine: a node's table (robot_control.param_table) declared on an rclpy node.
 
     class MyNode(ParameterNode):
         def __init__(self, **kwargs):
@@ -45,7 +45,7 @@ from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from robot_control.ros.param_table import ParameterError
+from robot_control.param_table import ParameterError
 from robot_control.validation import ArgumentError
 
 T = Parameter.Type

@@ -10,8 +10,9 @@ import argparse
 import re
 import sys
 
-from robot_control.ros import param_table, params
-from sim_bridge import parameters as bridge_params
+from robot_control import param_table
+from robot_control.ros import controller_params as params
+from sim_bridge import bridge_params
 
 #: node -> its parameter table
 TABLES = {'controller': params.TABLE, 'sim_bridge': bridge_params.TABLE}

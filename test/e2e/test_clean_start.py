@@ -10,8 +10,8 @@ import time
 
 import pytest
 
-import robustness_helpers as rh
-from e2e_helpers import E2E_DOMAINS
+from support import robustness as rh
+from support.e2e import E2E_DOMAINS
 from robot_control.tools.demo_procs import DomainClaim
 
 CONTROL_PERIOD = 0.001     # s, config/polar_two_link.yaml

@@ -14,8 +14,8 @@ claimed private domain), lockstep bridges (deterministic), driven like joint_tra
 import numpy as np
 import pytest
 
-import robustness_helpers as rh
-from e2e_helpers import E2E_DOMAINS, Lockstep
+from support import robustness as rh
+from support.e2e import E2E_DOMAINS, Lockstep
 from robot_control.tools.demo_experiments import IIWA_LINE
 from robot_control.tools.demo_procs import DomainClaim
 

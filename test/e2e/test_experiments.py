@@ -28,7 +28,7 @@ import math
 import numpy as np
 import pytest
 
-from e2e_helpers import Runs, common_ticks, physics_summary, restrict
+from support.e2e import Runs, common_ticks, physics_summary, restrict
 from robot_control.tools import demo_experiments as exps
 from robot_control import scenarios
 from robot_control.tools.demo_metrics import critically_damped

@@ -32,7 +32,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 
-import robustness_helpers as rh
+from support import robustness as rh
 from robot_control.core.controller import ControllerConfig, ControllerCore
 from robot_control.gains import ServoGains, design
 from robot_control.laws import Integral, computed_torque, hybrid, saturate
@@ -57,7 +57,7 @@ RTF = 0.5
 
 
 def _controller_parameter_names():
-    from robot_control.ros import params
+    from robot_control.ros import controller_params as params
     return set(params.TABLE.defaults())
 
 
@@ -773,7 +773,7 @@ def hybrid_rig():
 def impedance_rig():
     """Cartesian impedance on the iiwa in the pose task space, holding IIWA_POSTURE: the law that takes
     ~/target_pose and ~/target_wrench (a domain claimed from the end-to-end pool: the fixed ids are taken)."""
-    from e2e_helpers import E2E_DOMAINS
+    from support.e2e import E2E_DOMAINS
     from robot_control import scenarios
     from robot_control.tools.demo_experiments import IIWA_POSTURE
     from robot_control.tools.demo_procs import DomainClaim

@@ -1,6 +1,6 @@
 """The loop across two hosts, and a link failure that blocks nothing.
 
-Two network namespaces joined by a veth pair stand for two computers (test/two_hosts.py): addresses of
+Two network namespaces joined by a veth pair stand for two computers (test/support/two_hosts.py): addresses of
 their own in 10.213.<k>.0/24, real UDP between them, a /dev/shm each. The bridge runs on host `a`, the
 controller on host `b`, each as its own process with its publish calls timed; an observer on each host
 records what arrives there. Three runs, each checked by several tests:
@@ -22,7 +22,7 @@ import time
 import numpy as np
 import pytest
 
-import two_hosts as th
+from support import two_hosts as th
 from robot_control.models import for_scenario
 from robot_control.tools.demo_procs import DomainClaim
 

@@ -23,7 +23,7 @@ import pinocchio as pin
 import pybullet_data
 import pytest
 
-from loop_helpers import critically_damped, integrate, joint_space_loop
+from support.loops import critically_damped, integrate, joint_space_loop
 from robot_control.gains import ServoGains
 from robot_control.laws import computed_torque
 from robot_control.models import make_model

@@ -13,7 +13,7 @@ import pytest
 from robot_control.gains import ServoGains, design, pd_steady_state_error
 from robot_control.laws import Integral, computed_torque, force_1dof, hybrid, spring_force
 from robot_control.models import make_model
-from loop_helpers import critically_damped, integrate, joint_space_loop, rk4_step
+from support.loops import critically_damped, integrate, joint_space_loop, rk4_step
 
 W_N = 6.0
 PD = ServoGains.uniform(2, W_N ** 2, 2 * W_N)

@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from loop_helpers import integrate
+from support.loops import integrate
 from robot_control.core.config import ControllerConfig
 from robot_control.core.controller import ControllerCore
 from robot_control.laws import impedance

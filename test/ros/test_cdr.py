@@ -21,7 +21,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 
-from cdr_helpers import big_endian, big_endian_wrench
+from support.cdr import big_endian, big_endian_wrench
 from robot_control.ros import cdr
 from robot_control.ros.cdr import JointStateDecoder, JointStateEncoder, JointStateFrame, WrenchEncoder, WrenchFrame
 

@@ -13,7 +13,7 @@ from rclpy.parameter import Parameter
 
 from robot_control import scenarios
 from robot_control.ros.controller_node import ControllerNode
-from robot_control.ros.params import ParameterError
+from robot_control.ros.controller_params import ParameterError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 CONFIG = os.path.join(ROOT, 'config')

@@ -1,13 +1,13 @@
-"""The controller's parameter values -> ControllerConfig, without rclpy (robot_control.ros.controller_config)."""
+"""The controller's parameter values -> ControllerConfig, without rclpy (robot_control.ros.config_builder)."""
 import numpy as np
 import pytest
 
 from robot_control import scenarios
 from robot_control.laws import LAWS
 from robot_control.models import make_model
-from robot_control.ros import params
-from robot_control.ros.controller_config import ConfigBuilder
-from robot_control.ros.param_table import ParameterError
+from robot_control.ros import controller_params as params
+from robot_control.ros.config_builder import ConfigBuilder
+from robot_control.param_table import ParameterError
 from robot_control.validation import ArgumentError
 
 

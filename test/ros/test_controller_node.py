@@ -25,7 +25,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from cdr_helpers import big_endian, big_endian_wrench
+from support.cdr import big_endian, big_endian_wrench
 from robot_control import units
 from robot_control.ros import cdr
 from robot_control.ros import conversions as cv
@@ -535,7 +535,7 @@ def test_parameter_service_accepts_integers_and_empty_lists(ros_context):
 
 
 def test_invalid_start_up_parameter_raises_naming_it(ros_context):
-    from robot_control.ros.params import ParameterError
+    from robot_control.ros.controller_params import ParameterError
     with pytest.raises(ParameterError, match='^omega_n:'):
         ControllerNode(context=ros_context, parameter_overrides=[Parameter('omega_n', value=100.0)])
     with pytest.raises(ParameterError, match='^scenario:'):

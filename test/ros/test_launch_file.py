@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from robot_control import scenarios
-from sim_bridge.parameters import MODES
+from sim_bridge.bridge_params import MODES
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LAUNCH_FILE = os.path.join(ROOT, 'launch', 'scenario.launch.py')

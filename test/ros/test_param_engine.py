@@ -10,7 +10,7 @@ import pytest
 from rclpy.parameter import Parameter
 
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
-from robot_control.ros.param_table import ParameterError, Row, Table, custom, gt, one_of, size
+from robot_control.param_table import ParameterError, Row, Table, custom, gt, one_of, size
 from robot_control.validation import ArgumentError
 
 T = Parameter.Type

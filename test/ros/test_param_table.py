@@ -1,15 +1,15 @@
 """The parameter table without rclpy: rows, rules, stages, error mapping, rendering, and the two
-nodes' tables (robot_control.ros.param_table, robot_control.ros.params, sim_bridge.parameters)."""
+nodes' tables (robot_control.param_table, robot_control.ros.controller_params, sim_bridge.bridge_params)."""
 import math
 
 import pytest
 
 from robot_control import scenarios
-from robot_control.ros import params
-from robot_control.ros.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt, lt_eq, markdown,
+from robot_control.ros import controller_params as params
+from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt, lt_eq, markdown,
                                            not_empty, one_of, size, subset_of, unique)
 from robot_control.validation import ArgumentError
-from sim_bridge import parameters as bridge_params
+from sim_bridge import bridge_params
 
 
 def _rejects(row, value, values, match):

@@ -1,5 +1,5 @@
-"""The bridge without ROS: pacing pieces and command checks (sim_bridge.loop), the loop's decisions over a
-real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.parameters)."""
+"""The bridge without ROS: pacing pieces and command checks (sim_bridge.pacing), the loop's decisions over a
+real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_params)."""
 import array
 import dataclasses
 import math
@@ -9,9 +9,9 @@ import pytest
 
 from robot_control.models import make_model
 from robot_control.core.throttle import Throttle
-from sim_bridge import parameters as bridge_params
+from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import LockstepLoop, RealtimeLoop, make_loop
-from sim_bridge.loop import (REJECT_REASONS, CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
+from sim_bridge.pacing import (REJECT_REASONS, CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard, stamp_ns)
 from sim_bridge.world import World
 
@@ -268,7 +268,7 @@ def test_custom_urdf_needs_urdf_and_joints():
 
 
 def test_deadline_meter_counts_answers_before_the_next_step():
-    from sim_bridge.loop import DeadlineMeter
+    from sim_bridge.pacing import DeadlineMeter
     meter = DeadlineMeter(window=8)
     assert meter.latency_ms(50) is None
     meter.state(0, 1_000_000)

@@ -13,8 +13,8 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from bridge_harness import Harness, Probe, run_lockstep
-from cdr_helpers import big_endian
+from support.bridge_harness import Harness, Probe, run_lockstep
+from support.cdr import big_endian
 from robot_control.models import make_model
 from robot_control.ros.qos import CONTROL_QOS
 
@@ -382,7 +382,7 @@ def test_runtime_parameter_changes_are_validated(harness):
 
 def test_a_world_error_names_the_parameter(ros_context):
     """The World names its argument q0; the bridge names the parameter initial_positions."""
-    from robot_control.ros.param_table import ParameterError
+    from robot_control.param_table import ParameterError
     from sim_bridge.bridge_node import SimBridge
     q0 = [5.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0]       # joint 1 beyond the URDF's +-2.97 rad
     with pytest.raises(ParameterError, match='^initial_positions: lbr_iiwa_joint_1 = 5.0 is outside') as err:

@@ -23,7 +23,7 @@ from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
-from figure_helpers import axes_by_row, check_no_offset
+from support.figures import axes_by_row, check_no_offset
 from robot_control import urdf
 from robot_control.tools.bag_tracking import BagError, tracking_data
 from robot_control.tools.plot import main as plot_main

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from e2e_helpers import E2E_DOMAINS
+from support.e2e import E2E_DOMAINS
 from robot_control import scenarios
 from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, demo_procs, readme_results
 from robot_control.tools.demo_procs import DomainClaim

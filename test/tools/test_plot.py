@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from figure_helpers import axes_by_row, check_no_offset
+from support.figures import axes_by_row, check_no_offset
 from robot_control.tools.plot import DPI, tracking_figure
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

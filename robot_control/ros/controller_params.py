@@ -1,4 +1,4 @@
-"""The controller node's parameter table (robot_control.ros.param_table), free of rclpy.
+"""The controller node's parameter table (robot_control.param_table), free of rclpy.
 
 Three stages: `scenario` (read-only) fills the defaults of everything else from
 robot_control.scenarios (model, model_params.*, joints, urdf, tip, force_axes, k_e, x_e);
@@ -9,7 +9,7 @@ Model parameters use a flat dotted scheme that YAML nests naturally:
     model_params.m: 2.0          ->   model_params: {m: 2.0}
 one double per argument of the closed-form model class (robot_control.models.closed_form),
 e.g. polar_two_link: m (kg), gravity (m/s^2); for model 'urdf': gravity (m/s^2, along -z).
-The values become a ControllerConfig in robot_control.ros.controller_config.
+The values become a ControllerConfig in robot_control.ros.config_builder.
 """
 import functools
 import inspect
@@ -20,7 +20,7 @@ from robot_control import urdf as urdf_files
 from robot_control.core.config import FORCE_FEEDBACK
 from robot_control.laws import LAWS
 from robot_control.models import CLOSED_FORM
-from robot_control.ros.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, one_of, size,  # noqa: F401
+from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, one_of, size,  # noqa: F401
                                            subset_of, unique)
 
 #: units of the closed-form models' arguments (model_params.* descriptions)

@@ -1,4 +1,4 @@
-"""The bridge node's parameters: one table (robot_control.ros.param_table: name, type, default,
+"""The bridge node's parameters: one table (robot_control.param_table: name, type, default,
 description with units, rules, read-only) and build(), which turns checked values into the
 BridgeConfig snapshot the node's loop reads; free of rclpy so both can be tested and documented
 without DDS.
@@ -25,7 +25,7 @@ import numpy as np
 from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
 from robot_control.validation import ArgumentError
-from robot_control.ros.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
+from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
 
 MODES = ('realtime', 'lockstep')

@@ -16,7 +16,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.gains import ServoGains
 from robot_control.laws import law_class
 from robot_control.models import make_model
-from robot_control.ros.param_table import ParameterError
+from robot_control.param_table import ParameterError
 from robot_control.validation import ArgumentError
 
 MODEL_PARAMS = 'model_params.'

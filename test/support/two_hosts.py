@@ -11,10 +11,10 @@
   computers would; processes of the same host still share memory, as DDS expects.
 - Loop.capture_multicast(): a packet socket (AF_PACKET) on a host's end of the link counting the UDP
   packets to IPv4 multicast addresses that cross it, both ways (to show that none did).
-- `python test/two_hosts.py capture DEV`: that counter, run on a host; prints the count on SIGINT.
-- `python test/two_hosts.py observe ...`: an observer node run on a host: receive times and stamps of
+- `python test/support/two_hosts.py capture DEV`: that counter, run on a host; prints the count on SIGINT.
+- `python test/support/two_hosts.py observe ...`: an observer node run on a host: receive times and stamps of
   joint_states and robot_joint_commands, the /diagnostics statuses, written as JSON on SIGINT.
-- `python test/two_hosts.py node --publish-log PATH MODULE ARGS`: MODULE's main(ARGS) with every
+- `python test/support/two_hosts.py node --publish-log PATH MODULE ARGS`: MODULE's main(ARGS) with every
   rclpy publish timed (the longest call per topic, and every call over SLOW_NS with its start time).
 """
 import json
@@ -28,7 +28,7 @@ import tempfile
 import time
 
 NS = 1_000_000_000
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 #: second octet of the test subnets: 10.213.<k>.0/24, k from the pid
 SUBNET_PREFIX = '10.213'
 
@@ -204,7 +204,7 @@ class Loop:
 
     def node(self, name, host, module, **params):
         """Start node `name` ('bridge' or 'controller') on `host`: `module` with the config file and `params`."""
-        from robustness_helpers import ros_args
+        from support.robustness import ros_args
         argv = [__file__, 'node', '--publish-log', os.path.join(self.out, f'publish_{name}.json'), module,
                 *ros_args(self.config, **params)]
         self.nodes[name] = self._start(name, host, argv)
@@ -272,7 +272,7 @@ class Loop:
 
     def rss_kb(self):
         """{node name: RSS in kB} of the running nodes."""
-        from robustness_helpers import rss_kb
+        from support.robustness import rss_kb
         return {name: rss_kb(p.pid) for name, p in self.nodes.items()}
 
     def stop(self):
@@ -458,5 +458,5 @@ def main(argv=None):
 
 
 if __name__ == '__main__':
-    sys.path.insert(0, ROOT)
+    sys.path[:0] = [ROOT, os.path.join(ROOT, 'test')]   # the package, and `support` for its helpers
     sys.exit(main())

@@ -10,7 +10,7 @@
   example carries at least one fault (`kind`) and, where the fault is one the node must reject,
   `must_reject` is True (the test oracle).
 - Tally: the figures of the README table, written to out/robustness/summary.json.
-- `python test/robustness_helpers.py flood ...`: a joint_states flood publisher (its own process).
+- `python test/support/robustness.py flood ...`: a joint_states flood publisher (its own process).
 """
 import contextlib
 import json
@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 OUT_DIR = os.path.join(ROOT, 'out', 'robustness')
 NS = 1_000_000_000
 INT32_MAX = 2 ** 31 - 1

@@ -1,0 +1,1 @@
+"""Helpers the tests share: harnesses, process runners, network namespaces, figure checks."""
