@@ -1,376 +1,188 @@
-"""ControllerCore: the controller's per-tick work, without ROS.
+"""Controller: the whole controller without ROS, from a joint state to the command that answers it.
 
-The node calls update(t, q, qd, f_meas) once per joint_states message and publishes the torque it
-returns. One tick:
+One object owns everything a state goes through: reading q, qd by joint name
+(robot_control.core.joint_states), the time line of the stamps (core.timeline), the pairing of a
+state with the wrench of its own tick (core.pairing), the law's tick on the core's time (references,
+integral, saturation: core.tick.ControllerCore), the joint_states watchdog (core.watchdog) and the
+counts /diagnostics reports (core.status). A node, a test or an offline tool drives it the same way:
 
-  1. measure: the task state x = fk(q), xd = J qd, J, Jdot qd (laws that need a task space) and the
-     force on the force axes: measured (f_meas) or the lecture's spring f = k_e (x - x_e), with
-     fdot = k_e xd (no differentiation of a noisy sensor), and f + fdot T for force_lead_time T;
-  2. start or restart the references when needed (first tick, after stop(), after time went back,
-     after a switch to or from a law that does not track the joint reference);
-  3. sample the references (robot_control.core.references), guard lost contact on the force axes;
-  4. the law's errors, then its integral (robot_control.core.integral: clamp, anti-windup,
-     bumpless re-initialisation);
-  5. the law's torque; if it fails (a singular task Jacobian, a non-finite result) the gravity
-     hold g(q) instead, counted in `fallbacks`;
-  6. saturation to the effort limits, with back-calculation of the integral on saturated ticks.
+    controller = Controller(config, state_timeout=0.5)
+    result = controller.step(stamp_ns, names, positions, velocities, wrench)
+    if isinstance(result, Command): send(result.stamp_ns, result.values)     # else a Rejection
 
-Start and restart: the integral is reset, the joint reference holds the measured position q and
-the force reference ramps from the measured force to its target over force_ramp_time.
-
-Bumpless switching: a new configuration (configure) takes effect on the next tick. Changing gains,
-the integral flag, the model or the force parameters keeps the references; a switch between two
-laws that track the joint reference keeps them too; any other switch restarts them. On the first
-tick after a change the integral is re-initialised so that the new law's torque equals the last
-torque sent (zero without integral action).
-
-Lost contact (laws that use force): a robot_control.core.contact.ContactGuard watches every force
-axis; a tripped axis is held in position until a restart or a new force target.
-
-Not thread-safe: call every method from one thread (the node's executor does).
+step() answers one state with the wrench of its own tick (or the last one measured). A node whose
+wrench and state come through two readers uses the three pairing calls instead, each returning the
+results to publish, in order, as an iterator that answers each state when it is reached (publish a
+Command before taking the next: its tau is the controller's buffer): state_arrived() (a state of a paired stream may wait there for its
+wrench), wrench_arrived() and wait_over() (the node's one-shot timer: the wait is over). After
+publishing a Command the node calls sent() (watchdog, counts); its watchdog timer calls
+check_watchdog(). Stamps and clock readings are integer ns. Not thread-safe.
 """
 import numpy as np
 
 from robot_control import validation
-from robot_control.core.config import ControllerConfig
-from robot_control.core.contact import ContactGuard
-from robot_control.core.integral import IntegralAction
-from robot_control.core.references import References
-from robot_control.core.tolerances import GoalMonitor
-from robot_control.laws import Tick
-from robot_control.laws.force import _spring_force
-from robot_control.laws.saturation import _saturate
-from robot_control.validation import ArgumentError
+from robot_control.core.joint_states import JointStateReader
+from robot_control.core.pairing import WrenchPairing
+from robot_control.core.status import Counters, controller_statuses, needs_wrench
+from robot_control.core.tick import ControllerCore
+from robot_control.core.timeline import Timeline
+from robot_control.core.watchdog import StateWatchdog
 
-__all__ = ['ControllerConfig', 'ControllerCore']
+#: rejected-input sources, in the order /diagnostics lists them
+INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
 
 
-def _config(config):
-    if not isinstance(config, ControllerConfig):
-        raise ArgumentError('config', f'expected a ControllerConfig, got {type(config).__name__}')
-    return config
+class Command:
+    """The answer to a state: stamp_ns (the state's), tau (n,) N m or N saturated and finite, and the
+    same torque as a list of floats (values, what a serializer takes). tau is the controller's buffer,
+    overwritten by the next step."""
+
+    __slots__ = ('stamp_ns', 'tau', 'values')
+
+    def __init__(self, stamp_ns, tau, values):
+        self.stamp_ns, self.tau, self.values = stamp_ns, tau, values
 
 
-def measure_task(cfg, tick, f_meas):
-    """tick.x, xd, J, Jdot_qd; and on the force axes tick.f, fdot (N, N/s) when the law uses force."""
-    tick.x, tick.J, tick.Jdot_qd = cfg.model._task(tick.q, tick.qd)
-    tick.xd = tick.J @ tick.qd
-    if not (cfg.control_law.uses_force and cfg.force_axes):
-        return
-    mask = cfg.force_mask
-    x_n, xd_n = tick.x[mask], tick.xd[mask]
-    f, fdot = _spring_force(x_n, xd_n, cfg.x_e, cfg.k_e, 0.0)      # the lecture's f and fdot = k_e xd
-    if cfg.force_feedback == 'sensor':
-        if f_meas is None:
-            raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
-        f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
-    tick.f, tick.fdot = f + cfg.force_lead_time * fdot, fdot
+class Rejection:
+    """A state refused: source ('joint_states'), reason (the ArgumentError's text, naming the field)."""
+
+    __slots__ = ('stamp_ns', 'source', 'reason')
+
+    def __init__(self, stamp_ns, source, reason):
+        self.stamp_ns, self.source, self.reason = stamp_ns, source, reason
 
 
-def contact_guard(cfg):
-    """The lost-contact guard of the force axes for laws that use force (None without one, or with no bound)."""
-    law = cfg.control_law
-    if not (law.uses_force and cfg.force_axes) or not (np.isfinite(cfg.contact_max_travel)
-                                                        or np.isfinite(cfg.contact_max_speed)):
-        return None
-    return ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel, cfg.contact_max_speed)
+class Controller:
+    """The controller of ControllerConfig `config`; `state_timeout` s (> 0): the watchdog's timeout and
+    the largest step between two states' stamps (see the module docstring)."""
 
+    def __init__(self, config, state_timeout):
+        self.core = ControllerCore(config)
+        self.timeline = Timeline(state_timeout)
+        self.watchdog = StateWatchdog(state_timeout)
+        self.counters = Counters(INPUTS)
+        self._reader = JointStateReader(config.joints)
+        self._pairing = WrenchPairing()
+        self._pairs = needs_wrench(config)
+        self._f_meas = np.zeros(config.model.task_dim)
 
-class ControllerCore:
-    """Per-tick controller: update(t, q, qd, f_meas) -> tau, saturated and finite (see the module docstring).
-
-    Returned arrays are internal buffers, overwritten next tick.
-    """
-
-    def __init__(self, config):
-        config = _config(config)
-        n = config.n
-        self._cfg = config
-        self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
-        self._integral = IntegralAction(config.integral_dim, config.integral_limit)
-        self._tick = Tick()
-        self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
-        self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
-        self._t = None
-        self.active = self._reinit = self._restart = False
-        self.ticks = self.saturated_ticks = self.fallbacks = self.restarts = 0
-        self.saturation_counts = np.zeros(n, dtype=np.int64)
-        self.last_fallback = ''
-        self._guard = contact_guard(config)
-        self.goal = GoalMonitor(config.joints)
-
-    # -- configuration -----------------------------------------------------------------------------
+    # -- configuration ---------------------------------------------------------------------------------
     @property
     def config(self):
         """The active ControllerConfig."""
-        return self._cfg
+        return self.core.config
 
     def configure(self, config):
-        """Swap in a new ControllerConfig, effective on the next tick (joints cannot change)."""
-        config, old = _config(config), self._cfg
-        if config.joints != old.joints:
-            raise ArgumentError('joints', f'cannot change at run time ({list(old.joints)} -> {list(config.joints)})')
-        keeps = old.control_law.tracks == config.control_law.tracks == 'joint' or config.law == old.law
-        if config.integral_dim != old.integral_dim or config.integral_limit != old.integral_limit:
-            self._integral = self._integral.resized(config.integral_dim, config.integral_limit)
-        if config.force_axes != old.force_axes:
-            self._refs.set_force_axes(len(config.force_axes))
-        self._refs.move_time, self._refs.force_ramp_time = config.move_time, config.force_ramp_time
-        self._guard = contact_guard(config)
-        self._cfg = config
-        if self.active:
-            self._reinit = self._reinit or config.law_key() != old.law_key()
-            self._restart = self._restart or not keeps or config.force_axes != old.force_axes
+        """A new ControllerConfig, effective on the next state. Returns the results to publish (a state
+        that waited for its wrench is answered when the new law reads no measured force)."""
+        self.core.configure(config)
+        pairs, self._pairs = self._pairs, needs_wrench(config)
+        if pairs == self._pairs:
+            return []
+        if self._pairs:              # the measured force starts again from 0 N, not yet seen
+            self._f_meas[:] = 0.0
+            self.counters.wrench_seen = False
+            self._pairing = WrenchPairing()
+            return []
+        return self.wait_over()
 
-    # -- references --------------------------------------------------------------------------------
-    @property
-    def t(self):
-        """Time of the last tick, s (None before the first)."""
-        return self._t
-
-    def set_trajectory(self, times, positions, velocities=None, accelerations=None, t_start=None):
-        """Replace the joint reference by a path through points (References.set_trajectory: the first
-        point may be at 0 s, NaN positions hold a joint), checked against the model's position and
-        velocity limits; its goal and path tolerances are watched from now on. The start time t_start
-        is on the update() time base, None = the last tick. Returns the start time used."""
-        self._require_active('trajectory')
-        model = self._cfg.model
-        limits = (*model.position_limits, model.velocity_limit, self._cfg.joints)
-        traj = self._refs.set_trajectory(self._t, times, positions, velocities, accelerations, t_start, limits)
-        self.goal.start(traj.t_end)
-        return traj.t0
-
-    def hold_position(self):
-        """Cancel the motion: hold the last measured position, at rest (an empty trajectory)."""
-        self._require_active('hold')
-        self._refs.hold(self._t, self._tick.q.copy())
-        self.goal.cancel('cancelled by an empty trajectory')
-
-    def set_goal(self, q_goal, duration=None):
-        """Quintic move of the joint reference to q_goal (n,) over `duration` s (default move_time); before
-        the first state it becomes the first move from the measured start position."""
-        self._refs.set_goal(self._t if self.active else None, q_goal, duration)
-
-    def set_force_reference(self, f_target, t_start=None):
-        """Ramp the force reference to f_target (k,) N per force axis over force_ramp_time, from t_start
-        (None: now; after the last tick: pending until then). A new target re-arms the contact guard."""
-        self._refs.set_force_target(self._t if self.active else None, f_target, t_start)
-        if self._guard is not None and self._refs.force_pending is None:
-            self._guard.reset()
-
-    def set_target_pose(self, x_d, t_start=None):
-        """A task-space target x_d (m,) for the laws that track the task (impedance; hybrid's motion axes),
-        at rest, from t_start (None: now; after the last tick: pending until then). Until the first
-        target after a (re)start they follow the joint reference in the task space."""
-        self._require_active('target_pose')
-        self._refs.set_task_target(self._t, validation.vector('x_d', x_d, self._cfg.model.task_dim), t_start)
-
-    def set_target_wrench(self, wrench):
-        """A feed-forward wrench (m,) N, N m on the task axes (impedance), the robot on its environment."""
-        self._refs.wrench = np.array(validation.vector('wrench', wrench, self._cfg.model.task_dim))
+    def set_state_timeout(self, timeout):
+        """The watchdog's timeout and the time line's largest step, s (> 0)."""
+        self.watchdog.timeout = self.timeline.max_jump = timeout
 
     @property
-    def force_target(self):
-        """The force reference's target per force axis, N (copy)."""
-        return self._refs.f_target.copy()
+    def needs_wrench(self):
+        """True while the law reads the measured force (ft_sensor/wrench): states pair with wrenches."""
+        return self._pairs
+
+    # -- states -> commands ----------------------------------------------------------------------------
+    def step(self, stamp_ns, names, positions, velocities, wrench=None):
+        """The Command answering the state (stamp ns; joint names (k,), positions and velocities (k,),
+        the controlled joints matched by name), or its Rejection. wrench: the measured force (m,) on the
+        model's task axes at this stamp (N, N m; None: the last one measured, 0 before any)."""
+        if wrench is not None:
+            self._measured(validation.vector('wrench', wrench, self._f_meas.shape[0]))
+        return self._answer(stamp_ns, names, positions, velocities)
+
+    def state_arrived(self, stamp_ns, names, positions, velocities, wrench_publisher=None):
+        """A state from the node: the results to publish now, in order. With paired streams it waits for
+        the wrench of its own stamp (then it is not in the list; `waiting` tells). wrench_publisher: a
+        callable, True when a wrench publisher exists (asked for the first state only)."""
+        if not self._pairs:
+            return [self._answer(stamp_ns, names, positions, velocities)]
+        publisher = (self._pairing.last_state_ns is None and wrench_publisher is not None
+                     and wrench_publisher())
+        return self._answers(self._pairing.state(stamp_ns, (stamp_ns, names, positions, velocities), publisher))
+
+    def wrench_arrived(self, stamp_ns, force):
+        """A measured force (m,) on the task axes, N (checked by the reader of the message), stamped
+        stamp_ns: the results to publish now (the state that waited for it)."""
+        self._measured(force)
+        return self._answers(self._pairing.wrench(stamp_ns))
+
+    def wait_over(self):
+        """The wait for a wrench is over: the results to publish (the state that waited, if any)."""
+        return self._answers(self._pairing.release())
 
     @property
-    def force_pending(self):
-        """(t_start s, f_target) of a force target stamped ahead, or None."""
-        return self._refs.force_pending
+    def waiting(self):
+        """True while a state waits for its wrench."""
+        return self._pairing.held is not None
 
-    def reference_at(self, t):
-        """(q_d, qd_d, qdd_d) the joint reference would give at time t (new arrays)."""
-        self._require_active('reference')
-        return self._refs.at(t)
+    def _answers(self, states):
+        """The answers to the released `states`, each computed when the iterator reaches it."""
+        return (self._answer(*state) for state in states)
 
-    def _require_active(self, what):
-        if not self.active:
-            raise ArgumentError(what, 'no state received yet (the current state is the implicit start)')
+    def _measured(self, force):
+        self._f_meas[:] = force
+        self.counters.wrench_seen = True
 
-    def stop(self):
-        """Stop (watchdog): the next update() restarts from the then-current state."""
-        self.goal.cancel('the controller stopped')
-        self.active = False
-        self._reinit = self._restart = False
-
-    # -- the tick -----------------------------------------------------------------------------------
-    def update(self, t, q, qd, f_meas=None):
-        """Torque (n,) for the state (q, qd) at time t (s); f_meas (m,) measured task forces, N (required
-        with force_feedback 'sensor' by laws that use force). Checks its arguments (ArgumentError)."""
-        n = self._cfg.n
-        return self.update_checked(validation.scalar('t', t), validation.vector('q', q, n),
-                                   validation.vector('qd', qd, n), f_meas)
-
-    def update_checked(self, t, q, qd, f_meas=None):
-        """update() on a state known to be valid (t a finite float, q and qd finite float64 (n,) arrays,
-        as robot_control.ros.conversions.JointStateReader gives them)."""
-        law, tick = self._cfg.control_law, self._tick
-        tick.t, tick.q, tick.qd = t, q, qd
-        tick.f = tick.fdot = None
-        if law.needs_task_space:
-            measure_task(self._cfg, tick, f_meas)
-        dt = self._advance(t, tick)
-        self._sample_references(t, tick)
-        if law.tracks == 'joint' and self.goal.active:
-            self._watch_goal(tick)
-        law.errors(tick)
-        int_E = self._integrate(tick, dt)
-        tau, int_E = self._evaluate(tick, int_E)
-        return self._saturate(tick, tau, int_E, dt)
-
-    def _advance(self, t, tick):
-        """dt since the last tick (0 at a start); starts or restarts the references when needed."""
-        if self.active and t >= self._t:
-            dt, restart = t - self._t, self._restart
-        else:
-            if self._t is not None:
-                self.restarts += 1
-            dt, restart = 0.0, True
-            self._integral.reset()
-            self._reinit = False
-            self.active = True
-        if restart:
-            self._refs.start(t, tick.q, tick.f)
-            self._restart = False
-            if self._guard is not None:
-                self._guard.reset()
-        self._t = t
-        return dt
-
-    def _sample_references(self, t, tick):
-        """The joint reference (and the force reference, guarded, for laws that use force) at t."""
-        refs, law = self._refs, self._cfg.control_law
-        force = law.uses_force and refs.k > 0
-        pending = refs.force_pending
-        refs.sample(t, force)
-        tick.q_d, tick.qd_d, tick.qdd_d = refs.q_d, refs.qd_d, refs.qdd_d
-        tick.target = refs.sample_target(t) if law.tracks == 'task' else None
-        tick.wrench = refs.wrench
-        tick.f_d = tick.fd_d = tick.fdd_d = None
-        if not force:
-            return
-        tick.f_d, tick.fd_d, tick.fdd_d = refs.f_d, refs.fd_d, refs.fdd_d
-        guard = self._guard
-        if guard is not None:
-            if pending is not None and refs.force_pending is None:     # a stamped target took effect
-                guard.reset()
-            mask = self._cfg.force_mask
-            x_n = tick.x[mask]
-            guard.check(x_n, tick.xd[mask], tick.f, refs.f_target)
-            if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
-                guard.substitute(x_n, tick.f, refs.f_d, refs.fd_d, refs.fdd_d)
-
-    def _watch_goal(self, tick):
-        """Tolerances of the trajectory followed: a path violation or a missed goal holds the position."""
-        outcome = self.goal.check(tick.t, tick.q, tick.qd, tick.q_d, self._cfg.tolerances)
-        if outcome in ('path', 'missed'):
-            self._refs.hold(tick.t, tick.q.copy())
-            self._refs.sample(tick.t, False)
-
-    def _integrate(self, tick, dt):
-        """The integral the law uses this tick (None without integral action)."""
-        law, integral = self._cfg.control_law, self._integral
-        if not (self._cfg.integral and integral.dim):
-            if self._reinit:                     # integral action switched off: nothing left to show
-                integral.reset()
-            self._reinit = False
-            return None
-        if self._reinit:
-            ki, _ = law.integral_gains()
-            if self._has_prev:
-                integral.reinitialise(lambda z: law.torque(tick, z), self._tau, ki)
-            else:
-                integral.reset()
-            self._reinit = False
-        elif dt > 0.0:
-            integral.integrate(tick.E, dt, self._hold(tick))
-        return integral.value
-
-    def _hold(self, tick):
-        """Integral entries frozen this tick: all while contact is lost, else the law's choice after a
-        saturated tick (self._sat and self._tau are still the last tick's)."""
-        if self._guard is not None and self._guard.active:
-            return np.ones(self._integral.dim, dtype=bool)
-        if not self._sat_any:
-            return None
-        return self._cfg.control_law.freeze(tick, self._sat, self._tau)
-
-    def _evaluate(self, tick, int_E):
-        """(tau, int_E) of the law, or the gravity hold g(q) (and no integral) when the law fails."""
+    def _answer(self, stamp_ns, names, positions, velocities):
+        """State -> Command (or Rejection): read, time line, the law's tick."""
+        core = self.core
         try:
-            tau = self._cfg.control_law.torque(tick, int_E)
-            if validation.finite(tau):
-                return tau, int_E
-            raise ArgumentError('tau', f'non-finite result {tau.tolist()}')
-        except (ValueError, np.linalg.LinAlgError) as exc:
-            self.fallbacks += 1
-            self.last_fallback = str(exc)
-            g = self._cfg.model._g(tick.q)
-            if not validation.finite(g):
-                raise ArgumentError('tau', f'law failed ({exc}) and the gravity-hold fallback is not finite') \
-                    from exc
-            return g, None
+            q, qd = self._reader.read_fields(names, positions, velocities)
+            t = self.timeline.accept(stamp_ns, running=core.active)
+        except ValueError as exc:
+            self.counters.reject('joint_states', exc)
+            return Rejection(stamp_ns, 'joint_states', str(exc))
+        tau = core.update_checked(t, q, qd, self._f_meas)
+        return Command(stamp_ns, tau, core.tau_values)
 
-    def _saturate(self, tick, tau, int_E, dt):
-        """Clip to the effort limits into the torque buffer; back-calculate the integral when clipped."""
-        _saturate(tau, self._cfg.effort_limit, self._tau, self._sat)
-        self._tau_values = self._tau.tolist()
-        self._sat_any = sat_any = bool(self._sat.any())
-        self._has_prev = True
-        self.ticks += 1
-        if sat_any:
-            self.saturated_ticks += 1
-            self.saturation_counts += self._sat
-            if int_E is not None and dt > 0.0:
-                law = self._cfg.control_law
-                ki, kv = law.integral_gains()
-                self._integral.back_calculate(lambda z: law.torque(tick, z), np.array(tau), self._tau, ki, kv, dt)
-        return self._tau
+    def sent(self, node_ns, steady_ns, tick_ns):
+        """A Command was published at these clock readings, tick_ns of wall time after its state came:
+        True when that ends a watchdog trip (the states are back)."""
+        self.counters.commands_sent += 1
+        self.counters.tick(tick_ns)
+        return self.watchdog.fresh(node_ns, steady_ns)
 
-    # -- what the node publishes -----------------------------------------------------------------------
-    @property
-    def tau(self):
-        """Torque of the last tick, (n,), N m or N."""
-        return self._tau
+    # -- running -----------------------------------------------------------------------------------------
+    def restart(self):
+        """The next state restarts the law from that state (no jump)."""
+        self.core.stop()
 
-    @property
-    def tau_values(self):
-        """The same torque as a list of floats (what a serializer takes)."""
-        return self._tau_values
+    def deactivate(self):
+        """Stop: the next state restarts; a state waiting for its wrench is dropped."""
+        self.core.stop()
+        self._pairing = WrenchPairing()
 
-    @property
-    def saturated(self):
-        """Bool (n,): joints at their effort limit on the last tick."""
-        return self._sat
+    def check_watchdog(self, node_ns, steady_ns):
+        """The watchdog's check at these clock readings: True when it trips now (the law stops; the next
+        state restarts it)."""
+        if self.core.active and self.watchdog.check(node_ns, steady_ns):
+            self.core.stop()
+            return True
+        return False
 
-    @property
-    def reference_names(self):
-        """Names of the reference/error entries: the joints, the force axis or the task axes (the law's)."""
-        return self._cfg.control_law.reference_names
+    def state_age(self, node_ns, steady_ns):
+        """Seconds since the last answered state (None before the first)."""
+        return self.watchdog.age(node_ns, steady_ns)
 
-    @property
-    def reference(self):
-        """(pos, vel, acc) of the last tick in the law's space: q_d, qd_d, qdd_d for the joint laws; per
-        task axis x_d ... on motion axes and f_d, fd_d, fdd_d (N, N/s, N/s^2) on force axes."""
-        return self._tick.ref
+    def reject(self, source, reason):
+        """Count a rejected input of `source` (one of INPUTS)."""
+        self.counters.reject(source, reason)
 
-    @property
-    def joint_reference(self):
-        """(q_d, qd_d, qdd_d) of the last tick, (n,) each (for every law)."""
-        return self._refs.q_d, self._refs.qd_d, self._refs.qdd_d
-
-    @property
-    def error(self):
-        """(E, Ed) of the last tick, named like reference."""
-        return self._tick.E, self._tick.Ed
-
-    @property
-    def integral_value(self):
-        """The error integral (integral_dim,) used on the last tick (zeros when integral is off)."""
-        return self._integral.value
-
-    @property
-    def contact_guard(self):
-        """The lost-contact guard (robot_control.core.contact.ContactGuard) of the force axes, or None."""
-        return self._guard
+    def statuses(self, name, node_ns, steady_ns):
+        """/diagnostics content of controller `name` (robot_control.core.status)."""
+        return controller_statuses(name, self.core, self.watchdog, self.state_age(node_ns, steady_ns),
+                                   self.counters)

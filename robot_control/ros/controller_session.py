@@ -1,12 +1,12 @@
 """The configured controller: its core and its ROS interfaces, from configure to cleanup.
 
 A ControllerSession exists while the managed controller node (robot_control.ros.controller_node)
-is configured. It owns the ControllerCore, the publishers, subscriptions and timers, and turns
-messages into core calls: joint_states -> command (only while active), trajectories and force
-references, the watchdog, /diagnostics. The rclpy-free core decides: the time line of the stamps
-(robot_control.core.timeline), the watchdog (core.watchdog), the pairing of a state with the wrench
-of its own tick (core.pairing: a state waits in it, answered from the wrench callback or a one-shot
-timer), the law and its references (core.controller), the content of /diagnostics (core.status).
+is configured. It owns the Controller (robot_control.core.controller), the publishers, subscriptions
+and timers, and turns messages and timers into Controller calls and its results into messages:
+joint_states -> command (only while active), ft_sensor/wrench, trajectories and force references,
+the watchdog timer, /diagnostics. The rclpy-free Controller decides: the time line, the pairing of a
+state with the wrench of its own tick (a state waits in it, answered from the wrench callback or the
+one-shot timer), the law and its references, the watchdog, the content of /diagnostics.
 
 joint_states and ft_sensor/wrench are taken as serialized bytes and read by robot_control.ros.cdr
 (rclpy decodes what that declines, e.g. big-endian CDR); the command is written as serialized bytes
@@ -25,18 +25,13 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
 from robot_control import units
-from robot_control.core.controller import ControllerCore
-from robot_control.core.pairing import WrenchPairing
-from robot_control.core.status import Counters, controller_statuses, needs_wrench
-from robot_control.core.timeline import Timeline
-from robot_control.core.watchdog import StateWatchdog
+from robot_control.core.controller import Command, Controller
+from robot_control.core.status import needs_wrench
 from robot_control.ros import cdr, conversions
 from robot_control.ros.reference_inputs import ReferenceInputs
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.core.throttle import Throttle
 
-#: rejected-input sources, in the order /diagnostics lists them
-INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
 #: s of wall time a state waits for the wrench of its own tick (paired streams only, core.pairing)
 WRENCH_WAIT = 0.005
 #: smallest watchdog check period, s
@@ -56,13 +51,12 @@ class ControllerSession:
         self.log = node.get_logger()
         cfg = snapshot.config
         self.active = False
-        self._core = ControllerCore(cfg)
+        self.controller = Controller(cfg, snapshot.values['state_timeout'])
+        self._core = self.controller.core
         self._joints = cfg.joints
         self._task_axes = cfg.model.task_axes
-        self.counters = Counters(INPUTS)
-        self.timeline = Timeline(snapshot.values['state_timeout'])
-        self._watchdog = StateWatchdog(snapshot.values['state_timeout'])
-        self._pairing = WrenchPairing()
+        self.counters = self.controller.counters
+        self.timeline = self.controller.timeline
         self._warn_throttle = Throttle(units.to_ns(WARN_THROTTLE))
         self._contact_trips = 0
         self._inputs = ReferenceInputs(self)
@@ -80,20 +74,19 @@ class ControllerSession:
     @property
     def watchdog(self):
         """The joint_states StateWatchdog."""
-        return self._watchdog
+        return self.controller.watchdog
 
     def activate(self):
         """Command from the next state on, starting from that state (the core restarts there: no jump)."""
-        self._core.stop()
+        self.controller.restart()
         self.active = True
 
     def deactivate(self):
         """Stop commanding: states are no longer answered (the robot's driver then acts on its own
         command timeout: the bridge engages its brakes)."""
         self.active = False
-        self._core.stop()
+        self.controller.deactivate()
         self._wrench_timer.cancel()
-        self._pairing = WrenchPairing()
 
     def destroy(self):
         """Release every publisher, subscription and timer."""
@@ -110,8 +103,9 @@ class ControllerSession:
 
     def apply(self, old, snapshot, changed):
         """A run-time parameter change the engine committed (`old`, `snapshot`: Snapshots before and after)."""
-        self._core.configure(snapshot.config)
+        results = self.controller.configure(snapshot.config)
         self._set_ft_subscription(snapshot.config)
+        self._publish(results, time.perf_counter_ns())
         values = snapshot.values
         self._apply_references(values, changed=changed, old=old.values)
         self.allow_partial = values['allow_partial_joints_goal']
@@ -124,14 +118,12 @@ class ControllerSession:
 
     def _make_messages(self, cfg):
         """Readers and writers of the messages the loop handles, made once."""
-        self._reader = conversions.JointStateReader(cfg.joints)
         # joint_states in and the command out as serialized bytes (robot_control.ros.cdr)
         self._state_decoder = cdr.JointStateDecoder(arrays=False)    # floats: checked before any numpy call
         self._command_encoder = cdr.JointStateEncoder(cfg.joints, fields=('effort',))
         self._effort_array = Float64MultiArray()
         self._reference_msg = JointState()
         self._error_msg = JointState()
-        self._f_meas = np.zeros(len(self._task_axes))
 
     def _make_interfaces(self, values, cfg):
         node = self._node
@@ -164,23 +156,24 @@ class ControllerSession:
         decoder declines (e.g. big-endian CDR from another vendor)."""
         if not self.active:
             return
+        t_in = time.perf_counter_ns()
         msg = self._state_decoder.decode(data)
         msg = deserialize_message(data, JointState) if msg is None else msg
+        stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
         if self._first_state_ns is None:
-            self._first_state_ns = conversions.stamp_to_ns(msg.header.stamp)
-        if self._ft_sub is None:
-            self._answer(msg)
-            return
-        first = self._pairing.last_state_ns is None
-        publisher = first and self._node.count_publishers(self._ft_sub.topic_name) > 0
-        for state in self._pairing.state(conversions.stamp_to_ns(msg.header.stamp), msg, publisher):
-            self._answer(state)
-        if self._pairing.held is not None:
+            self._first_state_ns = stamp_ns
+        self._publish(self.controller.state_arrived(stamp_ns, msg.name, msg.position, msg.velocity,
+                                                    self._wrench_publisher), t_in)
+        if self.controller.waiting:
             self._wrench_timer.reset()
+
+    def _wrench_publisher(self):
+        return self._node.count_publishers(self._ft_sub.topic_name) > 0
 
     def _on_ft_sensor_raw(self, data):
         """ft_sensor/wrench as DDS delivered it: decoded by robot_control.ros.cdr, or by rclpy when the fast
         decoder declines."""
+        t_in = time.perf_counter_ns()
         msg = cdr.decode_wrench(data)
         msg = deserialize_message(data, WrenchStamped) if msg is None else msg
         try:
@@ -188,39 +181,30 @@ class ControllerSession:
         except ValueError as exc:  # keep the last valid measurement
             self.reject('ft_sensor_wrench', exc)
             return
-        self._f_meas[:] = f
-        self.counters.wrench_seen = True
-        for state in self._pairing.wrench(conversions.stamp_to_ns(msg.header.stamp)):
+        self._publish(self.controller.wrench_arrived(conversions.stamp_to_ns(msg.header.stamp), f), t_in)
+        if not self.controller.waiting:
             self._wrench_timer.cancel()
-            self._answer(state)
 
     def _on_wrench_wait_over(self):
         self._wrench_timer.cancel()
-        for state in self._pairing.release():
-            self._answer(state)
+        self._publish(self.controller.wait_over(), time.perf_counter_ns())
 
-    def _answer(self, msg):
-        """State -> command. Only what the command needs runs before it is published (in lockstep the
-        simulator waits for it); the bookkeeping follows."""
-        t_in = time.perf_counter_ns()
-        stamp_ns = conversions.stamp_to_ns(msg.header.stamp)
-        try:
-            q, qd = self._reader.read(msg)
-            t = self.timeline.accept(stamp_ns, running=self._core.active)
-        except ValueError as exc:
-            self.reject('joint_states', exc)
-            return
-        tau = self._core.update_checked(t, q, qd, self._f_meas)
-        self._cmd_pub.publish(self._command_encoder.encode(stamp_ns, effort=self._core.tau_values))
-        if self._array_pub is not None:
-            self._array_pub.publish(conversions.effort_array(tau, self._effort_array))
-        self.counters.tick(time.perf_counter_ns() - t_in)
-        self._after_answer(stamp_ns)
+    def _publish(self, results, t_in):
+        """The Controller's results: each Command goes out at once (in lockstep the simulator waits for
+        it), then its bookkeeping; a Rejection is logged (counted by the Controller)."""
+        for result in results:
+            if type(result) is not Command:
+                self._warn_rejected()
+                continue
+            self._cmd_pub.publish(self._command_encoder.encode(result.stamp_ns, effort=result.values))
+            if self._array_pub is not None:
+                self._array_pub.publish(conversions.effort_array(result.tau, self._effort_array))
+            tick_ns = time.perf_counter_ns() - t_in
+            self._after_answer(result.stamp_ns, tick_ns)
 
-    def _after_answer(self, stamp_ns):
+    def _after_answer(self, stamp_ns, tick_ns):
         """Bookkeeping of an answered state: watchdog, counts, ~/reference, ~/error, diagnostics."""
-        recovered = self._watchdog.fresh(self._node.get_clock().now().nanoseconds, time.monotonic_ns())
-        self.counters.commands_sent += 1
+        recovered = self.controller.sent(self._node.get_clock().now().nanoseconds, time.monotonic_ns(), tick_ns)
         if self.counters.commands_sent == 1:
             self.log.info(f'loop closed: the first command answers the state stamped '
                                    f'{units.seconds(stamp_ns):.3f} s (first state received: '
@@ -247,7 +231,10 @@ class ControllerSession:
             self.publish_diagnostics()
 
     def reject(self, source, reason):
-        self.counters.reject(source, reason)
+        self.controller.reject(source, reason)
+        self._warn_rejected()
+
+    def _warn_rejected(self):
         if self._warn_throttle.ready(time.monotonic_ns()):   # not rclpy's throttle: see robot_control.core.throttle
             self.log.warning(f'rejected {self.counters.last_rejection}')
 
@@ -255,17 +242,16 @@ class ControllerSession:
     def _set_watchdog(self, timeout):
         if self._watchdog_timer is not None:
             self._node.destroy_timer(self._watchdog_timer)
-        self._watchdog.timeout = self.timeline.max_jump = timeout
+        self.controller.set_state_timeout(timeout)
         # on the steady clock: with use_sim_time a dead simulator also stops /clock
         self._watchdog_timer = self._node.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog,
                                                  clock=self._steady)
 
     def _check_watchdog(self):
         now, steady = self._node.get_clock().now().nanoseconds, time.monotonic_ns()
-        if self._core.active and self._watchdog.check(now, steady):
-            self._core.stop()
-            self.log.error(f'no joint_states for {self._watchdog.age(now, steady):.3f} s (state_timeout '
-                                    f'{self._watchdog.timeout:g} s): stopped commanding')
+        if self.controller.check_watchdog(now, steady):
+            self.log.error(f'no joint_states for {self.controller.state_age(now, steady):.3f} s (state_timeout '
+                           f'{self.watchdog.timeout:g} s): stopped commanding')
             self.publish_diagnostics()
 
     def _set_diagnostics_timer(self, period):
@@ -276,9 +262,8 @@ class ControllerSession:
     def diagnostics(self):
         """The DiagnosticStatus list /diagnostics carries now."""
         name = self._node.get_fully_qualified_name().lstrip('/')
-        age = self._watchdog.age(self._node.get_clock().now().nanoseconds, time.monotonic_ns())
-        return [conversions.diagnostic_status(*status, name)
-                for status in controller_statuses(name, self._core, self._watchdog, age, self.counters)]
+        statuses = self.controller.statuses(name, self._node.get_clock().now().nanoseconds, time.monotonic_ns())
+        return [conversions.diagnostic_status(*status, name) for status in statuses]
 
     def publish_diagnostics(self):
         self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self._node.get_clock().now().nanoseconds))
@@ -295,17 +280,12 @@ class ControllerSession:
         the executor, at the bridge's control rate."""
         needed = needs_wrench(cfg)
         if needed and self._ft_sub is None:
-            self._f_meas[:] = 0.0
-            self.counters.wrench_seen = False
-            self._pairing = WrenchPairing()
             self._ft_sub = self._node.create_subscription(WrenchStamped, 'ft_sensor/wrench', self._on_ft_sensor_raw,
                                                           CONTROL_QOS, raw=True)
         elif not needed and self._ft_sub is not None:
             self._node.destroy_subscription(self._ft_sub)
             self._ft_sub = None
             self._wrench_timer.cancel()
-            for state in self._pairing.release():
-                self._answer(state)
 
     def _set_array_publisher(self, enabled):
         if enabled and self._array_pub is None:

@@ -25,26 +25,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from robot_control.validation import ArgumentError
 from robot_control import units, validation
+from robot_control.core.joint_states import F64, MAX_ABS, JointStateReader, plausible, sane  # noqa: F401 (JointStateReader: read here)
+from robot_control.validation import ArgumentError
 from robot_control.units import NS_PER_S
 
-#: largest magnitude accepted in a measurement or reference (rad, m, rad/s, m/s, N, ...): beyond it a
-#: value is not physical but a corrupted message, and would overflow the laws or the error integral
-MAX_ABS = 1e6
-_F64 = np.dtype(np.float64)
-
-
-def _sane(values):
-    """True when the non-empty sequence of floats `values` is finite and within +-MAX_ABS: one Python
-    sum, max and min (a NaN or an inf makes the sum non-finite)."""
-    return math.isfinite(sum(values)) and max(values) <= MAX_ABS and min(values) >= -MAX_ABS
-
-
-def _plausible(a):
-    """True when every entry of the float array `a` is finite and |a_i| <= MAX_ABS."""
-    values = a.tolist()
-    return not values or (max(values) <= MAX_ABS and min(values) >= -MAX_ABS)
 #: the six components of a wrench (force, then torque) and of a pose (position, then rotation vector)
 WRENCH_AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')
 
@@ -78,87 +63,6 @@ def s_to_duration(seconds):
 
 
 # -- joint states ------------------------------------------------------------------------------
-class JointStateReader:
-    """Reads q, qd of `joints` out of sensor_msgs/JointState by name, into preallocated arrays.
-
-    read(msg) -> (q, qd): (n,) float64 arrays valid until the next read (copy them to keep
-    them): internal buffers, or a robot_control.ros.cdr frame's own read-only arrays. The name ->
-    index map is cached while the message's name list does not change, so a steady stream costs
-    one list comparison and at most two copies per message (none for a cdr frame of arrays that
-    lists exactly the controlled joints in their order). A cdr frame of floats
-    (JointStateDecoder(arrays=False)) is checked on its floats, then copied: no other numpy call.
-    """
-
-    def __init__(self, joints):
-        self.joints = validation.names('joints', joints)
-        if not self.joints:
-            raise ArgumentError('joints', 'expected at least one joint name')
-        n = len(self.joints)
-        self._q = np.zeros(n)
-        self._qd = np.zeros(n)
-        self._names = None
-        self._index = None
-        self._in_order = False      # the cached names are exactly `joints`, in order
-
-    def _index_for(self, names):
-        if names == self._names:
-            return self._index
-        seen = {}
-        for i, name in enumerate(names):
-            if name in seen:
-                raise ArgumentError('name', f'duplicate joint {name!r}')
-            seen[name] = i
-        missing = [j for j in self.joints if j not in seen]
-        if missing:
-            raise ArgumentError('name', f'missing controlled joints {missing} (got {list(names)})')
-        self._index = np.array([seen[j] for j in self.joints], dtype=np.intp)
-        self._names = list(names)
-        self._in_order = self._names == list(self.joints)
-        return self._index
-
-    def read(self, msg):
-        names, position, velocity = msg.name, msg.position, msg.velocity
-        k = len(names)
-        if len(position) != k:
-            raise ArgumentError('position', f'expected one entry per name ({k}), got {len(position)}')
-        if len(velocity) != k:
-            raise ArgumentError('velocity', f'expected one entry per name ({k}), got {len(velocity)}')
-        index = self._index_for(names)
-        q, qd = self._q, self._qd
-        if self._in_order and type(position) is tuple and type(velocity) is tuple:
-            values = position + velocity  # a cdr frame's floats: checked before any numpy call
-            try:
-                ok = _sane(values)
-            except TypeError:             # not numbers: the array path below names them
-                ok = False
-            if ok:
-                q[:] = position
-                qd[:] = velocity
-                return q, qd
-        if not self._in_order:
-            np.take(np.asarray(position, dtype=float), index, out=q)
-            np.take(np.asarray(velocity, dtype=float), index, out=qd)
-        elif (type(position) is np.ndarray and type(velocity) is np.ndarray and position.dtype is _F64
-              and velocity.dtype is _F64 and position.ndim == velocity.ndim == 1):
-            q, qd = position, velocity    # a robot_control.ros.cdr frame's read-only views: no copy
-        else:
-            q[:] = position               # array.array (a received message): one buffer copy
-            qd[:] = velocity
-        values = q.tolist() + qd.tolist()    # one Python pass: finite and plausible
-        if _sane(values):
-            return q, qd
-        if q is not self._q:
-            self._q[:], self._qd[:] = q, qd
-        for field, values in (('position', self._q), ('velocity', self._qd)):
-            if not np.isfinite(values).all():
-                bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
-                raise ArgumentError(field, f'not finite for {", ".join(bad)}')
-            if not _plausible(values):
-                bad = [f'{self.joints[i]!r}: {values[i]:g}' for i in np.flatnonzero(np.abs(values) > MAX_ABS)]
-                raise ArgumentError(field, f'implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')
-        return self._q, self._qd
-
-
 def joint_state(names, stamp_ns=0, position=(), velocity=(), effort=(), frame_id='', out=None):
     """sensor_msgs/JointState with the given names and float arrays (empty fields stay empty)."""
     msg = JointState() if out is None else out
@@ -236,7 +140,7 @@ def _point_field(points, field, n, columns, required):
         row = np.asarray(getattr(p, field), dtype=float)
         if not np.isfinite(row).all():
             raise ArgumentError(f'points[{i}].{field}', f'not finite {row.tolist()}')
-        if not _plausible(row):
+        if not plausible(row):
             raise ArgumentError(f'points[{i}].{field}', f'implausible magnitude (> {MAX_ABS:g}) {row.tolist()}')
         out[i, columns] = row
     return out
@@ -330,15 +234,15 @@ def wrench_force(msg, axes, out=None):
     idx = _axis_indices(axes)
     six = _six(msg)
     values = [six[i] for i in idx]
-    if values and not _sane(values):
+    if values and not sane(values):
         for part, lo, unit in (('wrench.force', 0, 'N'), ('wrench.torque', 3, 'N m')):
             mine = [six[i] for i in idx if lo <= i < lo + 3]
             if not all(map(math.isfinite, mine)):
                 raise ArgumentError(part, f'not finite {list(six[lo:lo + 3])}')
-            if mine and not _sane(mine):
+            if mine and not sane(mine):
                 raise ArgumentError(part, f'implausible magnitude (> {MAX_ABS:g} {unit}) {list(six[lo:lo + 3])}')
     if out is None:
-        return np.array(values, dtype=_F64)
+        return np.array(values, dtype=F64)
     out[:] = values
     return out
 
@@ -386,7 +290,7 @@ def pose_target(msg, base_frame):
     check_base_frame(msg, base_frame)
     p, o = msg.pose.position, msg.pose.orientation
     position = np.array([p.x, p.y, p.z])
-    if not (np.isfinite(position).all() and _plausible(position)):
+    if not (np.isfinite(position).all() and plausible(position)):
         raise ArgumentError('pose.position', f'expected finite values within {MAX_ABS:g} m, got {position.tolist()}')
     quat = np.array([o.x, o.y, o.z, o.w])
     # entries beyond 2 make the norm exceed QUATERNION_NORM anyway: refused before they could overflow

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robot_control.core.controller import ControllerConfig, ControllerCore
+from robot_control.core.tick import ControllerConfig, ControllerCore
 from robot_control.gains import ServoGains, design
 from robot_control.laws import (computed_torque, force_1dof, hybrid, independent_joint, saturate,
                                 spring_force)

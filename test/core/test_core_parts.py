@@ -7,7 +7,7 @@ import pytest
 
 from robot_control import laws
 from robot_control.core.config import ControllerConfig
-from robot_control.core.controller import ControllerCore
+from robot_control.core.tick import ControllerCore
 from robot_control.core.pairing import WrenchPairing
 from robot_control.core.status import Counters, controller_statuses
 from robot_control.core.timeline import Timeline

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from robot_control.core.config import ControllerConfig
-from robot_control.core.controller import ControllerCore
+from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
 from robot_control.models import for_scenario, make_model
 from robot_control.trajectory import from_points

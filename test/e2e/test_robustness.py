@@ -33,7 +33,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 
 from support import robustness as rh
-from robot_control.core.controller import ControllerConfig, ControllerCore
+from robot_control.core.tick import ControllerConfig, ControllerCore
 from robot_control.gains import ServoGains, design
 from robot_control.laws import Integral, computed_torque, hybrid, saturate
 from robot_control.models import for_scenario, make_model

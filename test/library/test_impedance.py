@@ -11,7 +11,7 @@ import pytest
 
 from support.loops import integrate
 from robot_control.core.config import ControllerConfig
-from robot_control.core.controller import ControllerCore
+from robot_control.core.tick import ControllerCore
 from robot_control.laws import impedance
 from robot_control.laws.impedance import _damping
 from robot_control.laws.operational_space import _task_inertia_root

@@ -1,0 +1,91 @@
+"""Controller (no ROS): a joint state in, a command or a rejection out; the wrench of each state's own
+tick; the watchdog; the counts."""
+import numpy as np
+import pytest
+
+from robot_control.core.config import ControllerConfig
+from robot_control.core.controller import Command, Controller, Rejection
+from robot_control.core.tick import ControllerCore
+from robot_control.gains import design
+from robot_control.models import make_model
+
+MS = 1_000_000
+POLAR = make_model('polar_two_link', m=2.0, gravity=9.8)
+XY = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
+
+
+def polar():
+    return ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2), effort_limit=[200.0, 200.0])
+
+
+def hybrid_sensor():
+    d = design(1.0, 12.0)
+    return ControllerConfig(XY, law='hybrid', gains=d.gains(2), force_gains=d.gains(1), force_axes=('x',),
+                            k_e=[1000.0], x_e=[0.3], force_feedback='sensor', effort_limit=[200.0, 200.0])
+
+
+def test_a_state_by_name_gets_the_core_torque_on_the_stamp_time_line():
+    """Joints matched by name (extra joints ignored); the time is s since the first stamp."""
+    ctrl, core = Controller(polar(), 0.5), ControllerCore(polar())
+    q, qd = np.array([0.3, 0.7]), np.array([0.1, -0.2])
+    for k in range(5):
+        cmd = ctrl.step(7_000 * MS + k * MS, ['gripper', 'r', 'theta1'], [0.0, q[1], q[0]], [0.0, qd[1], qd[0]])
+        assert type(cmd) is Command and cmd.stamp_ns == 7_000 * MS + k * MS
+        np.testing.assert_array_equal(cmd.tau, core.update(k * 1e-3, q, qd))
+        assert cmd.values == cmd.tau.tolist()
+    assert ctrl.core.t == pytest.approx(0.004)
+
+
+@pytest.mark.parametrize('names, pos, stamp, field', [
+    (['theta1'], [0.1], 1 * MS, 'name'),
+    (['theta1', 'r'], [0.1, np.nan], 1 * MS, 'position'),
+    (['theta1', 'r'], [0.1, 0.5], 900 * MS, 'header.stamp'),          # 0.9 s after the last: > state_timeout
+])
+def test_a_bad_state_is_rejected_naming_the_field_and_counted(names, pos, stamp, field):
+    ctrl = Controller(polar(), 0.5)
+    ctrl.step(0, ['theta1', 'r'], [0.1, 0.5], [0.0, 0.0])
+    out = ctrl.step(stamp, names, pos, [0.0] * len(names))
+    assert type(out) is Rejection and out.source == 'joint_states' and out.reason.startswith(f'{field}:')
+    assert ctrl.counters.rejected['joint_states'] == 1 and ctrl.counters.last_rejection.startswith('joint_states:')
+
+
+def test_a_paired_state_waits_for_the_wrench_of_its_own_stamp():
+    """The hybrid law on a sensor: each state is answered with the force stamped like it, whichever
+    reader delivered first; the answer equals step() given that wrench."""
+    ctrl, ref = Controller(hybrid_sensor(), 0.5), Controller(hybrid_sensor(), 0.5)
+    names, q, qd = ['x', 'y'], [0.3002, 0.1], [0.0, 0.01]
+    waited = list(ctrl.state_arrived(0, names, q, qd, wrench_publisher=lambda: True))
+    assert waited == [] and ctrl.waiting
+    [cmd] = ctrl.wrench_arrived(0, np.array([2.0, 0.0]))
+    np.testing.assert_array_equal(cmd.tau, ref.step(0, names, q, qd, wrench=[2.0, 0.0]).tau)
+    assert list(ctrl.wrench_arrived(MS, np.array([2.5, 0.0]))) == []          # the wrench came first
+    [cmd] = ctrl.state_arrived(MS, names, q, qd)
+    np.testing.assert_array_equal(cmd.tau, ref.step(MS, names, q, qd, wrench=[2.5, 0.0]).tau)
+    assert list(ctrl.state_arrived(2 * MS, names, q, qd)) == [] and ctrl.waiting
+    [cmd] = ctrl.wait_over()                                                  # its wrench never came
+    np.testing.assert_array_equal(cmd.tau, ref.step(2 * MS, names, q, qd).tau)   # the last force measured
+    assert not ctrl.waiting
+
+
+def test_a_law_without_the_measured_force_answers_at_once_and_a_switch_releases_a_waiting_state():
+    ctrl = Controller(hybrid_sensor(), 0.5)
+    names, q = ['x', 'y'], [0.3002, 0.1]
+    assert list(ctrl.state_arrived(0, names, q, [0.0, 0.0], wrench_publisher=lambda: True)) == []
+    released = list(ctrl.configure(ctrl.config.replace(force_feedback='model')))
+    assert len(released) == 1 and released[0].stamp_ns == 0 and not ctrl.needs_wrench
+    assert len(list(ctrl.state_arrived(MS, names, q, [0.0, 0.0]))) == 1
+
+
+def test_the_watchdog_stops_the_law_and_the_next_state_restarts_it():
+    ctrl = Controller(polar(), 0.5)
+    assert type(ctrl.step(0, ['theta1', 'r'], [0.1, 0.5], [0.0, 0.0])) is Command
+    assert not ctrl.sent(0, 0, 1000)
+    assert not ctrl.check_watchdog(400 * MS, 400 * MS)
+    assert ctrl.check_watchdog(400 * MS, 600 * MS) and not ctrl.core.active
+    assert not ctrl.check_watchdog(400 * MS, 700 * MS)                          # trips once
+    assert type(ctrl.step(5_000 * MS, ['theta1', 'r'], [0.2, 0.5], [0.0, 0.0])) is Command   # clock jumped: accepted
+    assert ctrl.sent(5_000 * MS, 5_000 * MS, 1000) and ctrl.core.restarts == 1
+    np.testing.assert_array_equal(ctrl.core.joint_reference[0], [0.2, 0.5])
+    assert ctrl.counters.commands_sent == 2 and ctrl.counters.tick_count == 2
+    levels = [s[1] for s in ctrl.statuses('c', 5_000 * MS, 5_000 * MS)]
+    assert levels[0] == 'OK'
