@@ -9,11 +9,15 @@ returns. One tick:
   2. start or restart the references when needed (first tick, after stop(), after time went back,
      after a switch to or from a law that does not track the joint reference);
   3. sample the references (robot_control.core.references), guard lost contact on the force axes;
-  4. the law's errors, then its integral (robot_control.core.integral: clamp, anti-windup,
+  4. the law's errors, then its integral (robot_control.laws.integral: clamp, anti-windup,
      bumpless re-initialisation);
-  5. the law's torque; if it fails (a singular task Jacobian, a non-finite result) the gravity
-     hold g(q) instead, counted in `fallbacks`;
-  6. saturation to the effort limits, with back-calculation of the integral on saturated ticks.
+  5. the law's torque, evaluated once; if it fails (a singular task Jacobian, a non-finite result)
+     the gravity hold g(q) instead, counted in `fallbacks`;
+  6. saturation to the effort limits, with back-calculation of the integral on saturated ticks
+     (from the law's closed-form integral map B = d tau / d int E: no second evaluation).
+
+The law sees immutable inputs made for the tick (robot_control.laws.base: State, Reference) and
+answers with its Errors and its torque; nothing it is given is written.
 
 Start and restart: the integral is reset, the joint reference holds the measured position q and
 the force reference ramps from the measured force to its target over force_ramp_time.
@@ -34,10 +38,9 @@ import numpy as np
 from robot_control import validation
 from robot_control.core.config import ControllerConfig
 from robot_control.core.contact import ContactGuard
-from robot_control.core.integral import IntegralAction
 from robot_control.core.references import References
 from robot_control.core.tolerances import GoalMonitor
-from robot_control.laws import Tick
+from robot_control.laws import Integral, Reference, State
 from robot_control.laws.force import _spring_force
 from robot_control.laws.saturation import _saturate
 from robot_control.validation import ArgumentError
@@ -51,20 +54,20 @@ def _config(config):
     return config
 
 
-def measure_task(cfg, tick, f_meas):
-    """tick.x, xd, J, Jdot_qd; and on the force axes tick.f, fdot (N, N/s) when the law uses force."""
-    tick.x, tick.J, tick.Jdot_qd = cfg.model._task(tick.q, tick.qd)
-    tick.xd = tick.J @ tick.qd
+def measure_task(cfg, q, qd, f_meas):
+    """(x, xd, J, Jdot_qd, f, fdot): the task state, and on the force axes f, fdot (N, N/s) when the law
+    uses force (else None, None)."""
+    x, J, Jdot_qd = cfg.model._task(q, qd)
+    xd = J @ qd
     if not (cfg.control_law.uses_force and cfg.force_axes):
-        return
+        return x, xd, J, Jdot_qd, None, None
     mask = cfg.force_mask
-    x_n, xd_n = tick.x[mask], tick.xd[mask]
-    f, fdot = _spring_force(x_n, xd_n, cfg.x_e, cfg.k_e, 0.0)      # the lecture's f and fdot = k_e xd
+    f, fdot = _spring_force(x[mask], xd[mask], cfg.x_e, cfg.k_e, 0.0)      # the lecture's f and fdot = k_e xd
     if cfg.force_feedback == 'sensor':
         if f_meas is None:
             raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
         f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
-    tick.f, tick.fdot = f + cfg.force_lead_time * fdot, fdot
+    return x, xd, J, Jdot_qd, f + cfg.force_lead_time * fdot, fdot
 
 
 def contact_guard(cfg):
@@ -87,8 +90,9 @@ class ControllerCore:
         n = config.n
         self._cfg = config
         self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
-        self._integral = IntegralAction(config.integral_dim, config.integral_limit)
-        self._tick = Tick()
+        self._integral = Integral._of_checked(config.integral_dim, config.integral_limit)
+        self._q = np.zeros(n)                    # the last measured position
+        self._err = None                         # the law's Errors of the last tick
         self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
         self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
         self._t = None
@@ -111,7 +115,7 @@ class ControllerCore:
         if config.joints != old.joints:
             raise ArgumentError('joints', f'cannot change at run time ({list(old.joints)} -> {list(config.joints)})')
         keeps = old.control_law.tracks == config.control_law.tracks == 'joint' or config.law == old.law
-        if config.integral_dim != old.integral_dim or config.integral_limit != old.integral_limit:
+        if config.integral_dim != self._integral.n or config.integral_limit != old.integral_limit:
             self._integral = self._integral.resized(config.integral_dim, config.integral_limit)
         if config.force_axes != old.force_axes:
             self._refs.set_force_axes(len(config.force_axes))
@@ -143,7 +147,7 @@ class ControllerCore:
     def hold_position(self):
         """Cancel the motion: hold the last measured position, at rest (an empty trajectory)."""
         self._require_active('hold')
-        self._refs.hold(self._t, self._tick.q.copy())
+        self._refs.hold(self._t, self._q.copy())
         self.goal.cancel('cancelled by an empty trajectory')
 
     def set_goal(self, q_goal, duration=None):
@@ -205,22 +209,23 @@ class ControllerCore:
     def update_checked(self, t, q, qd, f_meas=None):
         """update() on a state known to be valid (t a finite float, q and qd finite float64 (n,) arrays,
         as robot_control.ros.conversions.JointStateReader gives them)."""
-        law, tick = self._cfg.control_law, self._tick
-        tick.t, tick.q, tick.qd = t, q, qd
-        tick.f = tick.fdot = None
-        if law.needs_task_space:
-            measure_task(self._cfg, tick, f_meas)
-        dt = self._advance(t, tick)
-        self._sample_references(t, tick)
+        law = self._cfg.control_law
+        self._q[:] = q
+        state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)
+        dt = self._advance(state)
+        ref = self._reference(state)
         if law.tracks == 'joint' and self.goal.active:
-            self._watch_goal(tick)
-        law.errors(tick)
-        int_E = self._integrate(tick, dt)
-        tau, int_E = self._evaluate(tick, int_E)
-        return self._saturate(tick, tau, int_E, dt)
+            self._watch_goal(state, ref)
+        self._err = err = law.errors(state, ref)
+        int_E, bumpless = self._integrate(err.E, dt)
+        tau, int_E = self._evaluate(state, ref, err, int_E)
+        if bumpless and int_E is not None:
+            tau = self._reinitialise(state, ref, err, tau)
+        return self._saturate(state, ref, err, tau, int_E, dt)
 
-    def _advance(self, t, tick):
+    def _advance(self, state):
         """dt since the last tick (0 at a start); starts or restarts the references when needed."""
+        t = state.t
         if self.active and t >= self._t:
             dt, restart = t - self._t, self._restart
         else:
@@ -231,88 +236,102 @@ class ControllerCore:
             self._reinit = False
             self.active = True
         if restart:
-            self._refs.start(t, tick.q, tick.f)
+            self._refs.start(t, state.q, state.f)
             self._restart = False
             if self._guard is not None:
                 self._guard.reset()
         self._t = t
         return dt
 
-    def _sample_references(self, t, tick):
-        """The joint reference (and the force reference, guarded, for laws that use force) at t."""
-        refs, law = self._refs, self._cfg.control_law
+    def _reference(self, state):
+        """The Reference at state.t: the joint reference (and the force reference, guarded, for laws that
+        use force)."""
+        t, refs, law = state.t, self._refs, self._cfg.control_law
         force = law.uses_force and refs.k > 0
         pending = refs.force_pending
         refs.sample(t, force)
-        tick.q_d, tick.qd_d, tick.qdd_d = refs.q_d, refs.qd_d, refs.qdd_d
-        tick.target = refs.sample_target(t) if law.tracks == 'task' else None
-        tick.wrench = refs.wrench
-        tick.f_d = tick.fd_d = tick.fdd_d = None
+        target = refs.sample_target(t) if law.tracks == 'task' else None
         if not force:
-            return
-        tick.f_d, tick.fd_d, tick.fdd_d = refs.f_d, refs.fd_d, refs.fdd_d
+            return Reference(refs.q_d, refs.qd_d, refs.qdd_d, target=target, wrench=refs.wrench)
         guard = self._guard
         if guard is not None:
             if pending is not None and refs.force_pending is None:     # a stamped target took effect
                 guard.reset()
             mask = self._cfg.force_mask
-            x_n = tick.x[mask]
-            guard.check(x_n, tick.xd[mask], tick.f, refs.f_target)
+            x_n = state.x[mask]
+            guard.check(x_n, state.xd[mask], state.f, refs.f_target)
             if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
-                guard.substitute(x_n, tick.f, refs.f_d, refs.fd_d, refs.fdd_d)
+                guard.substitute(x_n, state.f, refs.f_d, refs.fd_d, refs.fdd_d)
+        return Reference(refs.q_d, refs.qd_d, refs.qdd_d, refs.f_d, refs.fd_d, refs.fdd_d, target, refs.wrench)
 
-    def _watch_goal(self, tick):
-        """Tolerances of the trajectory followed: a path violation or a missed goal holds the position."""
-        outcome = self.goal.check(tick.t, tick.q, tick.qd, tick.q_d, self._cfg.tolerances)
+    def _watch_goal(self, state, ref):
+        """Tolerances of the trajectory followed: a path violation or a missed goal holds the position (the
+        reference's arrays are re-sampled in place)."""
+        outcome = self.goal.check(state.t, state.q, state.qd, ref.q_d, self._cfg.tolerances)
         if outcome in ('path', 'missed'):
-            self._refs.hold(tick.t, tick.q.copy())
-            self._refs.sample(tick.t, False)
+            self._refs.hold(state.t, state.q.copy())
+            self._refs.sample(state.t, False)
 
-    def _integrate(self, tick, dt):
-        """The integral the law uses this tick (None without integral action)."""
-        law, integral = self._cfg.control_law, self._integral
-        if not (self._cfg.integral and integral.dim):
+    def _integrate(self, E, dt):
+        """(the integral the law uses this tick or None without integral action, True when it is to be
+        re-initialised for a bumpless transfer once the law's torque at zero integral is known)."""
+        integral = self._integral
+        if not (self._cfg.integral and integral.n):
             if self._reinit:                     # integral action switched off: nothing left to show
                 integral.reset()
             self._reinit = False
-            return None
+            return None, False
+        bumpless = self._reinit and self._has_prev
         if self._reinit:
-            ki, _ = law.integral_gains()
-            if self._has_prev:
-                integral.reinitialise(lambda z: law.torque(tick, z), self._tau, ki)
-            else:
-                integral.reset()
+            integral.reset()
             self._reinit = False
         elif dt > 0.0:
-            integral.integrate(tick.E, dt, self._hold(tick))
-        return integral.value
+            integral._update(E, dt, self._hold(E))
+        return integral.value, bumpless
 
-    def _hold(self, tick):
+    def _hold(self, E):
         """Integral entries frozen this tick: all while contact is lost, else the law's choice after a
         saturated tick (self._sat and self._tau are still the last tick's)."""
         if self._guard is not None and self._guard.active:
-            return np.ones(self._integral.dim, dtype=bool)
+            return np.ones(self._integral.n, dtype=bool)
         if not self._sat_any:
             return None
-        return self._cfg.control_law.freeze(tick, self._sat, self._tau)
+        return self._cfg.control_law.freeze(E, self._sat, self._tau)
 
-    def _evaluate(self, tick, int_E):
+    def _integral_map(self, state, ref, err):
+        """(B = d tau / d int E of the law at this tick, (ki, kv)); B None when the law fails there."""
+        law = self._cfg.control_law
+        try:
+            B = law.integral_map(state, ref, err)
+        except (ValueError, np.linalg.LinAlgError):
+            B = None
+        return B, law.integral_gains()
+
+    def _reinitialise(self, state, ref, err, tau0):
+        """Bumpless transfer: the integral whose torque tau0 + B int E is the last torque sent; that torque."""
+        B, (ki, _) = self._integral_map(state, ref, err)
+        if B is None:
+            return tau0
+        self._integral.reinitialise(B, tau0, self._tau, ki)
+        return tau0 + B @ self._integral.value
+
+    def _evaluate(self, state, ref, err, int_E):
         """(tau, int_E) of the law, or the gravity hold g(q) (and no integral) when the law fails."""
         try:
-            tau = self._cfg.control_law.torque(tick, int_E)
+            tau = self._cfg.control_law.torque(state, ref, err, int_E)
             if validation.finite(tau):
                 return tau, int_E
             raise ArgumentError('tau', f'non-finite result {tau.tolist()}')
         except (ValueError, np.linalg.LinAlgError) as exc:
             self.fallbacks += 1
             self.last_fallback = str(exc)
-            g = self._cfg.model._g(tick.q)
+            g = self._cfg.model._g(state.q)
             if not validation.finite(g):
                 raise ArgumentError('tau', f'law failed ({exc}) and the gravity-hold fallback is not finite') \
                     from exc
             return g, None
 
-    def _saturate(self, tick, tau, int_E, dt):
+    def _saturate(self, state, ref, err, tau, int_E, dt):
         """Clip to the effort limits into the torque buffer; back-calculate the integral when clipped."""
         _saturate(tau, self._cfg.effort_limit, self._tau, self._sat)
         self._tau_values = self._tau.tolist()
@@ -323,9 +342,9 @@ class ControllerCore:
             self.saturated_ticks += 1
             self.saturation_counts += self._sat
             if int_E is not None and dt > 0.0:
-                law = self._cfg.control_law
-                ki, kv = law.integral_gains()
-                self._integral.back_calculate(lambda z: law.torque(tick, z), np.array(tau), self._tau, ki, kv, dt)
+                B, (ki, kv) = self._integral_map(state, ref, err)
+                if B is not None:
+                    self._integral.back_calculate(B, tau, self._tau, ki, kv, dt)
         return self._tau
 
     # -- what the node publishes -----------------------------------------------------------------------
@@ -353,7 +372,7 @@ class ControllerCore:
     def reference(self):
         """(pos, vel, acc) of the last tick in the law's space: q_d, qd_d, qdd_d for the joint laws; per
         task axis x_d ... on motion axes and f_d, fd_d, fdd_d (N, N/s, N/s^2) on force axes."""
-        return self._tick.ref
+        return self._err.ref
 
     @property
     def joint_reference(self):
@@ -363,7 +382,7 @@ class ControllerCore:
     @property
     def error(self):
         """(E, Ed) of the last tick, named like reference."""
-        return self._tick.E, self._tick.Ed
+        return self._err.E, self._err.Ed
 
     @property
     def integral_value(self):

@@ -1,6 +1,6 @@
 """Control laws: each a function of arrays (its equation, checked at the public entry) and a Law class.
 
-servo + Integral: the servo portion v = qdd_d + Kv Ed + Kp E + Ki int E, and the error integral.
+servo: the servo portion v = qdd_d + Kv Ed + Kp E + Ki int E.  Integral: the error integral, clamp and anti-windup.
 computed_torque: tau = M v + C qd + g.  independent_joint: tau = Kp E + Kv Ed + Ki int E.
 force_1dof: tau = m v + f.  hybrid: hybrid position/force control in operational space.
 gravity_compensation: tau = g(q).  impedance: Cartesian impedance in operational space.  saturate: clip to the effort limits, with the saturated mask.
@@ -8,7 +8,7 @@ gravity_compensation: tau = g(q).  impedance: Cartesian impedance in operational
 LAWS is the registry the controller core and the tools ask: law name -> Law class (laws.base).
 A new law is one module with its equation and its Law class, and one entry here.
 """
-from robot_control.laws.base import Law, Tick
+from robot_control.laws.base import Errors, Law, Reference, State
 from robot_control.laws.computed_torque import ComputedTorque, computed_torque
 from robot_control.laws.force import Force, force_1dof, spring_force
 from robot_control.laws.gravity_compensation import GravityCompensation, gravity_compensation
@@ -17,7 +17,8 @@ from robot_control.laws.impedance import Impedance, impedance
 from robot_control.laws.independent_joint import IndependentJoint, independent_joint
 from robot_control.laws.operational_space import operational_space, posture_acceleration
 from robot_control.laws.saturation import saturate
-from robot_control.laws.servo import Integral, servo
+from robot_control.laws.integral import Integral
+from robot_control.laws.servo import servo
 from robot_control.validation import ArgumentError
 
 #: law name -> Law class, in the order the parameter table lists them
@@ -32,6 +33,6 @@ def law_class(name):
         raise ArgumentError('law', f'unknown {name!r}; expected one of {list(LAWS)}') from None
 
 
-__all__ = ['LAWS', 'Law', 'Tick', 'law_class', 'Integral', 'servo', 'computed_torque', 'independent_joint',
+__all__ = ['LAWS', 'Law', 'State', 'Reference', 'Errors', 'law_class', 'Integral', 'servo', 'computed_torque', 'independent_joint',
            'force_1dof', 'spring_force', 'hybrid', 'hybrid_error', 'hybrid_servo', 'operational_space',
            'posture_acceleration', 'gravity_compensation', 'impedance', 'saturate']

@@ -1,4 +1,4 @@
-"""A control law as the controller core runs it: the Law interface and the numbers of one tick.
+"""A control law as the controller core runs it: the Law interface and what one tick gives it.
 
 Each law module holds its equation (a function of checked arrays), the checked public function
 around it, and a Law subclass that the registry (robot_control.laws.LAWS) names. A Law says what it
@@ -16,31 +16,60 @@ needs, so that nothing else has to know the law by its name:
                     False: no motion-servo gains and, unless integral_dim says otherwise, no integral.
 
 An instance is made for one ControllerConfig: its constructor checks what the law needs of the
-configuration (ArgumentError naming the field) and keeps what the tick reads.
+configuration (ArgumentError naming the field) and keeps what the tick reads. Per tick the core hands
+it immutable inputs, made for that tick: the measured State and the Reference; the law answers with
+its Errors and its torque. Every law is affine in its error integral, tau = tau(0) + B int E: the law
+gives B = d tau / d int E in closed form (integral_map), so that the core's anti-windup and bumpless
+transfer never evaluate the law a second time.
 """
+from typing import NamedTuple
+
 import numpy as np
 
 from robot_control.validation import ArgumentError
 
 
-class Tick:
-    """The numbers of one control tick (arrays are overwritten on the next tick).
+class State(NamedTuple):
+    """The measured state of one tick. t (s); q, qd (n,). Task state (needs_task_space, else None): x, xd
+    (m,), J (m, n), Jdot_qd (m,). On the force axes (uses_force, else None): f, fdot (k,) N and N/s, the
+    force the robot exerts on the environment."""
 
-    Measured: t (s), q, qd (n,). Task state (needs_task_space): x, xd (m,), J (m, n), Jdot_qd (m,).
-    Force feedback on the force axes (uses_force): f, fdot (k,) N and N/s, the force the robot exerts
-    on the environment. References: q_d, qd_d, qdd_d (n,) the joint reference; f_d, fd_d, fdd_d (k,)
-    the force reference; target (x_d, xd_d, xdd_d) (m,) each, a task-space target when one was given
-    (~/target_pose), else None; wrench (m,) a feed-forward wrench (N, N m) or None. What the law derives from them (Law.errors): ref = (pos, vel, acc) and the
-    errors E, Ed in the law's own space (Law.reference_names), which the core integrates and the node
-    publishes on ~/reference and ~/error.
-    """
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    x: np.ndarray = None
+    xd: np.ndarray = None
+    J: np.ndarray = None
+    Jdot_qd: np.ndarray = None
+    f: np.ndarray = None
+    fdot: np.ndarray = None
 
-    __slots__ = ('t', 'q', 'qd', 'x', 'xd', 'J', 'Jdot_qd', 'f', 'fdot', 'q_d', 'qd_d', 'qdd_d',
-                 'f_d', 'fd_d', 'fdd_d', 'target', 'wrench', 'ref', 'E', 'Ed')
 
-    def __init__(self):
-        for name in self.__slots__:
-            setattr(self, name, None)
+class Reference(NamedTuple):
+    """The references of one tick. q_d, qd_d, qdd_d (n,) the joint reference; f_d, fd_d, fdd_d (k,) the
+    force reference (uses_force, else None); target (x_d, xd_d, xdd_d) (m,) each, a task-space target when
+    one was given (~/target_pose), else None; wrench (m,) a feed-forward wrench (N, N m) or None."""
+
+    q_d: np.ndarray
+    qd_d: np.ndarray
+    qdd_d: np.ndarray
+    f_d: np.ndarray = None
+    fd_d: np.ndarray = None
+    fdd_d: np.ndarray = None
+    target: tuple = None
+    wrench: np.ndarray = None
+
+
+class Errors(NamedTuple):
+    """What a law derives from a State and a Reference (Law.errors), in its own space (Law.reference_names):
+    ref = (pos, vel, acc), the errors E and Ed (the core integrates E; the node publishes them on
+    ~/reference and ~/error); force: the measured force on every task axis (m,), 0 on the motion axes, for
+    the laws that use force (else None)."""
+
+    ref: tuple
+    E: np.ndarray
+    Ed: np.ndarray
+    force: np.ndarray = None
 
 
 class Law:
@@ -87,21 +116,26 @@ class Law:
             return np.zeros(dim), np.zeros(dim)
         return np.array(self.config.gains.ki), np.array(self.config.gains.kv)
 
-    def errors(self, tick):
-        """Set tick.ref, tick.E, tick.Ed for this tick (the joint laws: E = q_d - q, Ed = qd_d - qd)."""
-        np.subtract(tick.q_d, tick.q, out=self.E)
-        np.subtract(tick.qd_d, tick.qd, out=self.Ed)
-        tick.ref, tick.E, tick.Ed = (tick.q_d, tick.qd_d, tick.qdd_d), self.E, self.Ed
+    def errors(self, state, ref):
+        """Errors of this tick (the joint laws: E = q_d - q, Ed = qd_d - qd; arrays of the law, overwritten
+        next tick)."""
+        np.subtract(ref.q_d, state.q, out=self.E)
+        np.subtract(ref.qd_d, state.qd, out=self.Ed)
+        return Errors((ref.q_d, ref.qd_d, ref.qdd_d), self.E, self.Ed)
 
-    def torque(self, tick, int_E):
-        """tau (n,) for this tick, with the error integral int_E (integral_dim,) or None."""
+    def torque(self, state, ref, err, int_E):
+        """tau (n,) for this tick: State, Reference, its Errors, the error integral int_E (integral_dim,) or None."""
         raise NotImplementedError
 
-    def freeze(self, tick, saturated, tau):
-        """Anti-windup by conditional integration: the integral entries to hold this tick, given the
-        joints saturated on the last tick (bool (n,)) and its torque tau (n,). Joint-space laws hold
-        entry i when joint i saturated and E_i pushes further into the limit."""
-        return saturated & (tick.E * tau > 0.0)
+    def integral_map(self, state, ref, err):
+        """B = d tau / d int E, (n, integral_dim), at this tick: tau = tau(int_E = 0) + B int_E."""
+        raise NotImplementedError
+
+    def freeze(self, E, saturated, tau):
+        """Anti-windup by conditional integration: the integral entries to hold this tick, given this tick's
+        error E, the joints saturated on the last tick (bool (n,)) and its torque tau (n,). Joint-space laws
+        hold entry i when joint i saturated and E_i pushes further into the limit."""
+        return saturated & (E * tau > 0.0)
 
     def check_servo_gains(self, field, gains, size):
         """ArgumentError naming `field` unless gains is a ServoGains of `size` entries."""

@@ -36,5 +36,9 @@ class ComputedTorque(Law):
         super().__init__(config)
         self.check_servo_gains('kp', config.gains, self.model.n)
 
-    def torque(self, tick, int_E):
-        return _computed_torque(self.model, tick.q, tick.qd, tick.qdd_d, tick.E, tick.Ed, self.config.gains, int_E)
+    def torque(self, state, ref, err, int_E):
+        return _computed_torque(self.model, state.q, state.qd, ref.qdd_d, err.E, err.Ed, self.config.gains, int_E)
+
+    def integral_map(self, state, ref, err):
+        """B = M(q) diag(ki): the integral enters as M Ki int E."""
+        return self.model._M(state.q) * self.config.gains.ki

@@ -8,7 +8,7 @@ Ef'' + kv Ef' + kp Ef = 0.
 import numpy as np
 
 from robot_control import validation
-from robot_control.laws.base import Law
+from robot_control.laws.base import Errors, Law
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
@@ -94,11 +94,15 @@ class Force(Law):
             return np.zeros(1), np.zeros(1)
         return np.array(self.config.force_gains.ki), np.array(self.config.force_gains.kv)
 
-    def errors(self, tick):
-        np.subtract(tick.f_d, tick.f, out=self.E)
-        np.subtract(tick.fd_d, tick.fdot, out=self.Ed)
-        tick.ref, tick.E, tick.Ed = (tick.f_d, tick.fd_d, tick.fdd_d), self.E, self.Ed
+    def errors(self, state, ref):
+        np.subtract(ref.f_d, state.f, out=self.E)
+        np.subtract(ref.fd_d, state.fdot, out=self.Ed)
+        return Errors((ref.f_d, ref.fd_d, ref.fdd_d), self.E, self.Ed)
 
-    def torque(self, tick, int_E):
-        m = self.model._M(tick.q)[0, 0]
-        return _force_1dof(m, tick.f, tick.fdd_d, tick.E, tick.Ed, self.k_e, self.config.force_gains, int_E)
+    def torque(self, state, ref, err, int_E):
+        m = self.model._M(state.q)[0, 0]
+        return _force_1dof(m, state.f, ref.fdd_d, err.E, err.Ed, self.k_e, self.config.force_gains, int_E)
+
+    def integral_map(self, state, ref, err):
+        """B = m ki / k_e, (1, 1)."""
+        return self.model._M(state.q) * (self.config.force_gains.ki / self.k_e)

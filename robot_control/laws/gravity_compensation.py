@@ -24,5 +24,5 @@ class GravityCompensation(Law):
     tracks = None
     motion_servo = False
 
-    def torque(self, tick, int_E):
-        return _gravity_compensation(self.model, tick.q)
+    def torque(self, state, ref, err, int_E):
+        return _gravity_compensation(self.model, state.q)

@@ -20,7 +20,7 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.gains import ServoGains
-from robot_control.laws.base import Law
+from robot_control.laws.base import Errors, Law
 from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
                                                   check_law_fits, check_task_dimension, posture_gains)
 from robot_control.laws.servo import _servo, servo_gains
@@ -149,7 +149,6 @@ class Hybrid(Law):
         K_e[self.axes] = config.k_e
         self.K_e = K_e
         self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
-        self.f_e = np.zeros(m)
 
     @classmethod
     def servo_sizes(cls, model, force_axes):
@@ -171,20 +170,18 @@ class Hybrid(Law):
             return np.zeros(m), np.zeros(m)
         return self.gains.ki.copy(), self.gains.kv.copy()
 
-    def errors(self, tick):
+    def errors(self, state, ref):
         """Motion axes: the task target (~/target_pose) once one came, else the joint reference in the task
         space, x_d = fk(q_d), xd_d = J(q_d) qd_d, xdd_d = J(q_d) qdd_d + Jdot qd_d; force axes: the force
-        reference; then the errors of _hybrid_errors."""
+        reference; then the errors of _hybrid_errors (force: f_e, the measured force on the force axes)."""
         axes = self.axes
-        target = tick.target
-        x_d, xd_d, xdd_d = target if target is not None else self.model._task_motion(tick.q_d, tick.qd_d,
-                                                                                      tick.qdd_d)
-        f, fdot, f_d, fd_d, fdd_d = (self._on_force_axes(v) for v in (tick.f, tick.fdot, tick.f_d, tick.fd_d,
-                                                                      tick.fdd_d))
-        acc, tick.E, tick.Ed = _hybrid_errors(self.model._task_difference(x_d, tick.x), tick.xd, xd_d, xdd_d, f, fdot,
-                                              f_d, fd_d, fdd_d, axes)
-        tick.ref = (np.where(axes, f_d, x_d), np.where(axes, fd_d, xd_d), acc)
-        self.f_e = f
+        target = ref.target
+        x_d, xd_d, xdd_d = target if target is not None else self.model._task_motion(ref.q_d, ref.qd_d, ref.qdd_d)
+        f, fdot, f_d, fd_d, fdd_d = (self._on_force_axes(v) for v in (state.f, state.fdot, ref.f_d, ref.fd_d,
+                                                                      ref.fdd_d))
+        acc, E, Ed = _hybrid_errors(self.model._task_difference(x_d, state.x), state.xd, xd_d, xdd_d, f, fdot,
+                                    f_d, fd_d, fdd_d, axes)
+        return Errors((np.where(axes, f_d, x_d), np.where(axes, fd_d, xd_d), acc), E, Ed, f)
 
     def _on_force_axes(self, values):
         """(m,): `values` (k,) on the force axes, 0 elsewhere."""
@@ -193,12 +190,17 @@ class Hybrid(Law):
             full[self.axes] = values
         return full
 
-    def torque(self, tick, int_E):
-        Lambda, _ = _task_inertia_root(self.model, tick.q, tick.J)
-        F = _hybrid_servo(tick.ref[2], tick.E, tick.Ed, self.gains, self.K_e, int_E)
-        qdd_0 = _posture_acceleration(tick.q, tick.qd, tick.q_d, self.kp0, self.kv0)
-        return _operational_space(self.model, tick.q, tick.qd, tick.J, tick.Jdot_qd, F, self.f_e, qdd_0, Lambda)
+    def torque(self, state, ref, err, int_E):
+        Lambda, _ = _task_inertia_root(self.model, state.q, state.J)
+        F = _hybrid_servo(err.ref[2], err.E, err.Ed, self.gains, self.K_e, int_E)
+        qdd_0 = _posture_acceleration(state.q, state.qd, ref.q_d, self.kp0, self.kv0)
+        return _operational_space(self.model, state.q, state.qd, state.J, state.Jdot_qd, F, err.force, qdd_0, Lambda)
 
-    def freeze(self, tick, saturated, tau):
+    def integral_map(self, state, ref, err):
+        """B = J^T Lambda diag(ki / K_e): the integral enters F' as Ki int E / K_e."""
+        Lambda, _ = _task_inertia_root(self.model, state.q, state.J)
+        return (state.J.T @ Lambda) * (self.gains.ki / self.K_e)
+
+    def freeze(self, E, saturated, tau):
         """The task-space integral drives every joint: hold it whole while any joint saturates."""
         return np.full(self.integral_dim, bool(saturated.any()))

@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from robot_control import validation
-from robot_control.laws.base import Law
+from robot_control.laws.base import Errors, Law
 from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
                                                   check_law_fits, check_task_dimension, posture_gains)
 from robot_control.validation import ArgumentError
@@ -137,19 +137,17 @@ class Impedance(Law):
     def reference_names(self):
         return self.model.task_axes
 
-    def errors(self, tick):
+    def errors(self, state, ref):
         """The target (the task target, or the joint reference in the task space) and E, Ed toward it."""
-        target = tick.target if tick.target is not None else self.model._task_motion(tick.q_d, tick.qd_d,
-                                                                                      tick.qdd_d)
+        target = ref.target if ref.target is not None else self.model._task_motion(ref.q_d, ref.qd_d, ref.qdd_d)
         x_d, xd_d, _ = target
-        tick.ref = target
-        tick.E = _bounded(self.model._task_difference(x_d, tick.x), self.rotation, self.limits)
-        tick.Ed = xd_d - tick.xd
+        return Errors(target, _bounded(self.model._task_difference(x_d, state.x), self.rotation, self.limits),
+                      xd_d - state.xd)
 
-    def torque(self, tick, int_E):
-        Lambda, root = _task_inertia_root(self.model, tick.q, tick.J)
+    def torque(self, state, ref, err, int_E):
+        Lambda, root = _task_inertia_root(self.model, state.q, state.J)
         D = _damping(root, self.K, self.ratio) if self.D is None else self.D
-        F_ff = tick.wrench if tick.wrench is not None else np.zeros(self.model.task_dim)
-        qdd_0 = _posture_acceleration(tick.q, tick.qd, tick.q_d, self.kp0, self.kv0)
-        return _impedance(self.model, tick.q, tick.qd, tick.J, tick.Jdot_qd, tick.E, tick.Ed, tick.ref[2], self.K, D,
+        F_ff = ref.wrench if ref.wrench is not None else np.zeros(self.model.task_dim)
+        qdd_0 = _posture_acceleration(state.q, state.qd, ref.q_d, self.kp0, self.kv0)
+        return _impedance(self.model, state.q, state.qd, state.J, state.Jdot_qd, err.E, err.Ed, err.ref[2], self.K, D,
                           F_ff, qdd_0, Lambda)

@@ -3,6 +3,8 @@
 The gains here are torque gains (N m/rad, N m s/rad, N m/(rad s)), not the 1/s^2 ... of the
 computed-torque servo: without the model there is no unit mass to normalise by.
 """
+import numpy as np
+
 from robot_control import validation
 from robot_control.laws.base import Law
 from robot_control.laws.servo import servo_gains
@@ -38,5 +40,9 @@ class IndependentJoint(Law):
         super().__init__(config)
         self.check_servo_gains('kp', config.gains, self.model.n)
 
-    def torque(self, tick, int_E):
-        return _independent_joint(tick.E, tick.Ed, self.config.gains, int_E)
+    def torque(self, state, ref, err, int_E):
+        return _independent_joint(err.E, err.Ed, self.config.gains, int_E)
+
+    def integral_map(self, state, ref, err):
+        """B = diag(ki)."""
+        return np.diag(self.config.gains.ki)

@@ -526,3 +526,67 @@ def test_hold_is_the_trajectory_module_hold():
     core = ControllerCore(polar_config())
     core.update(3.0, np.array([0.2, 0.6]), np.zeros(2))
     np.testing.assert_array_equal(core.reference_at(100.0)[0], hold([0.2, 0.6]).sample(0.0)[0])
+
+
+# -- one evaluation of the law per tick --------------------------------------------------------------
+def _count_torque_calls(core):
+    law, calls = core.config.control_law, []
+    torque = law.torque
+
+    def counted(*args):
+        calls.append(args)
+        return torque(*args)
+    law.torque = counted
+    return calls
+
+
+@pytest.mark.parametrize('case', sorted(CASES))
+def test_the_law_is_evaluated_once_per_tick_saturated_or_not_and_after_a_switch(case):
+    make, q0, f_meas = CASES[case]
+    cfg = make(True)
+    core = ControllerCore(cfg.replace(effort_limit=np.full(cfg.n, 1.0)))
+    calls = _count_torque_calls(core)
+    if core.config.force_axes:
+        core.set_force_reference([40.0])
+    core.set_goal(q0 + 0.3, duration=0.02)
+    for k in range(40):
+        core.update(k * DT, *random_state(q0.shape[0], 0.002, q0), f_meas)
+    assert core.saturated_ticks > 30 and len(calls) == 40
+    core.configure(core.config.replace(integral_limit=10.0))        # re-initialised: bumpless, still once
+    calls = _count_torque_calls(core)
+    core.update(40 * DT, *random_state(q0.shape[0], 0.002, q0), f_meas)
+    assert len(calls) == 1
+
+
+@pytest.mark.parametrize('law', ['computed_torque', 'independent_joint'])
+def test_a_saturated_tick_back_calculates_the_integral_by_the_equation(law):
+    """int += min(1, dt / Tt) d with B d = tau_sat - tau_law, B = d tau / d int E (the closed form agrees
+    with the law's finite differences), Tt = sqrt(kv / ki); the step comes with the next tick's E dt."""
+    gains = design(1.0, 12.0, integral=True).gains(2) if law == 'computed_torque' else \
+        ServoGains([50.0, 80.0], [10.0, 20.0], [30.0, 40.0])
+    core = ControllerCore(polar_config(integral=True, law=law, gains=gains, effort_limit=[0.5, 0.3]))
+    q, qd = np.array([0.2, 0.6]), np.array([0.1, -0.1])
+    core.update(0.0, q, qd)
+    core.set_goal([0.5, 0.9], duration=0.5)
+    for k in range(1, 20):
+        core.update(k * DT, q, qd)
+    int_prev, tau_sat = core.integral_value.copy(), core.tau.copy()
+    pos, vel, acc = [a.copy() for a in core.reference]
+    assert core.saturated.all()
+
+    def law_tau(z):
+        if law == 'computed_torque':
+            return computed_torque(POLAR, q, qd, pos, vel, acc, gains, z)
+        return independent_joint(q, qd, pos, vel, gains, z)
+    tau_law = law_tau(int_prev)
+    B = np.column_stack([law_tau(int_prev + e) - tau_law for e in np.eye(2)])
+    closed = POLAR.M(q) * gains.ki if law == 'computed_torque' else np.diag(gains.ki)
+    np.testing.assert_allclose(closed, B, rtol=1e-9, atol=1e-9)
+    d = np.linalg.solve(closed, tau_sat - tau_law)
+    step = np.minimum(1.0, DT / np.sqrt(gains.kv / gains.ki)) * d
+    core.update(20 * DT, q, qd)
+    E = core.error[0]
+    hold = core.config.control_law.freeze(E, np.array([True, True]), tau_sat)
+    np.testing.assert_allclose(core.integral_value, int_prev + step + np.where(hold, 0.0, E * DT),
+                               rtol=0, atol=1e-12)
+    assert np.abs(step).max() > 1e-6

@@ -70,8 +70,8 @@ class _Damping(Law):
     def integral_dim(self):
         return 0
 
-    def torque(self, tick, int_E):
-        return self.model._g(tick.q) - self.config.gains.kv * tick.qd
+    def torque(self, state, ref, err, int_E):
+        return self.model._g(state.q) - self.config.gains.kv * state.qd
 
 
 def test_a_law_is_one_class_and_one_registry_entry(monkeypatch):
