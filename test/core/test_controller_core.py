@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robot_control.core.tick import ControllerConfig, ControllerCore
+from robot_control.core.tick import ControllerConfig, ControllerCore, measure_task
 from robot_control.gains import ServoGains, design
-from robot_control.laws import (computed_torque, force_1dof, hybrid, independent_joint, saturate,
+from robot_control.laws import (Reference, State, computed_torque, force_1dof, hybrid, independent_joint, saturate,
                                 spring_force)
 from robot_control.models import make_model
 from robot_control.trajectory import from_points, hold, point_to_point
@@ -590,3 +590,20 @@ def test_a_saturated_tick_back_calculates_the_integral_by_the_equation(law):
     np.testing.assert_allclose(core.integral_value, int_prev + step + np.where(hold, 0.0, E * DT),
                                rtol=0, atol=1e-12)
     assert np.abs(step).max() > 1e-6
+
+
+@pytest.mark.parametrize('case', sorted(CASES))
+def test_the_integral_map_of_every_law_is_its_torque_s_derivative_in_the_integral(case):
+    """B = d tau / d int E in closed form equals the law's finite differences: tau is affine in int E."""
+    make, q0, f_meas = CASES[case]
+    cfg = make(True)
+    law, k = cfg.control_law, len(cfg.force_axes)
+    q, qd = random_state(q0.shape[0], 0.002, q0)
+    state = State(0.1, q, qd, *measure_task(cfg, q, qd, f_meas)) if law.needs_task_space else State(0.1, q, qd)
+    force = (np.full(k, 3.0), np.full(k, 0.5), np.full(k, 0.1)) if k else (None, None, None)
+    ref = Reference(q0 + 0.01, np.full(q0.shape[0], 0.1), np.full(q0.shape[0], 0.2), *force)
+    err = law.errors(state, ref)
+    z = RNG.uniform(-0.1, 0.1, law.integral_dim)
+    tau = law.torque(state, ref, err, z)
+    fd = np.column_stack([law.torque(state, ref, err, z + e) - tau for e in np.eye(law.integral_dim)])
+    np.testing.assert_allclose(law.integral_map(state, ref, err), fd, rtol=1e-9, atol=1e-9)
