@@ -31,8 +31,7 @@ class ControllerConfig:
     """Immutable snapshot of everything the per-tick computation reads (checked on creation).
 
     model: RobotModel (the controller's own, closed form or URDF).
-    law: a name of robot_control.laws.LAWS ('computed_torque', 'independent_joint', 'force', 'hybrid',
-      'gravity_compensation').
+    law: a name of the registry robot_control.laws.LAWS.
     gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for computed
       torque; torque gains N m/rad ... for independent_joint), (m,) or one per motion axis for hybrid.
     force_gains: ServoGains (k,) one per force axis (force and hybrid laws), 1/s^2, 1/s, 1/s^3.
@@ -50,9 +49,10 @@ class ControllerConfig:
     force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
     contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
       measured force explains, m/s along the axis; > 0, inf = off), robot_control.core.contact.ContactGuard.
-    cartesian_stiffness: six values (x, y, z N/m; rx, ry, rz N m/rad) of the impedance law's K;
-      cartesian_damping: six values (N s/m, N m s/rad), or None for the design of cartesian_damping_ratio;
-      max_pose_error: (m, rad) bounds of the task error the impedance law (and hybrid's target) servo.
+    law_params: the parameters only the law reads: a mapping of its parameter names (Law.param_rows) to
+      values (missing ones at their defaults; None: all), or the law's Params; held as that law's
+      Params (a frozen dataclass, e.g. robot_control.laws.impedance.ImpedanceParams), None for a law
+      without parameters.
     trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
       goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
       (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
@@ -80,10 +80,7 @@ class ControllerConfig:
     goal_tolerance: np.ndarray = 0.0
     goal_time: float = 0.0
     stopped_velocity_tolerance: float = 0.01
-    cartesian_stiffness: tuple = (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0)
-    cartesian_damping: tuple = None
-    cartesian_damping_ratio: float = 1.0
-    max_pose_error: tuple = (0.1, 0.5)
+    law_params: object = None
 
     def __post_init__(self):
         model = self.model
@@ -115,12 +112,7 @@ class ControllerConfig:
                 raise ArgumentError(name, f'expected a positive bound (inf = off), got {value!r}')
             set_(name, float(value))
         self._set_tolerances(set_)
-        set_('cartesian_damping_ratio', validation.scalar('cartesian_damping_ratio', self.cartesian_damping_ratio,
-                                                          nonnegative=True))
-        limits = validation.vector('max_pose_error', self.max_pose_error, 2)
-        if min(limits.tolist()) <= 0.0:
-            raise ArgumentError('max_pose_error', f'expected two positive bounds (m, rad), got {limits.tolist()}')
-        set_('max_pose_error', tuple(limits.tolist()))
+        set_('law_params', law.make_params(self.law_params))
         set_('_law', law(self))
 
     def _set_force_axes(self, set_):
@@ -189,7 +181,7 @@ class ControllerConfig:
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
         return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
                 self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
-                self.posture_gains, self.integral_limit)
+                self.posture_gains, self.integral_limit, self.law_params)
 
     def replace(self, **changes):
         """A copy with `changes` (checked)."""

@@ -79,6 +79,36 @@ def contact_guard(cfg):
     return ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel, cfg.contact_max_speed)
 
 
+def sample_reference(cfg, refs, guard, state):
+    """The Reference at state.t from the References `refs`: the joint reference (and the force reference,
+    guarded by the ContactGuard `guard` or None, for laws that use force), the task target."""
+    t, law = state.t, cfg.control_law
+    force = law.uses_force and refs.k > 0
+    pending = refs.force_pending
+    refs.sample(t, force)
+    target = refs.sample_target(t) if law.tracks == 'task' else None
+    if not force:
+        return Reference(refs.q_d, refs.qd_d, refs.qdd_d, target=target, wrench=refs.wrench)
+    if guard is not None:
+        if pending is not None and refs.force_pending is None:     # a stamped target took effect
+            guard.reset()
+        mask = cfg.force_mask
+        x_n = state.x[mask]
+        guard.check(x_n, state.xd[mask], state.f, refs.f_target)
+        if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
+            guard.substitute(x_n, state.f, refs.f_d, refs.fd_d, refs.fdd_d)
+    return Reference(refs.q_d, refs.qd_d, refs.qdd_d, refs.f_d, refs.fd_d, refs.fdd_d, target, refs.wrench)
+
+
+def integral_map(law, state, ref, err):
+    """(B = d tau / d int E of `law` at this tick, (ki, kv)); B None when the law fails there."""
+    try:
+        B = law.integral_map(state, ref, err)
+    except (ValueError, np.linalg.LinAlgError):
+        B = None
+    return B, law.integral_gains()
+
+
 class ControllerCore:
     """Per-tick controller: update(t, q, qd, f_meas) -> tau, saturated and finite (see the module docstring).
 
@@ -213,7 +243,7 @@ class ControllerCore:
         self._q[:] = q
         state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)
         dt = self._advance(state)
-        ref = self._reference(state)
+        ref = sample_reference(self._cfg, self._refs, self._guard, state)
         if law.tracks == 'joint' and self.goal.active:
             self._watch_goal(state, ref)
         self._err = err = law.errors(state, ref)
@@ -242,27 +272,6 @@ class ControllerCore:
                 self._guard.reset()
         self._t = t
         return dt
-
-    def _reference(self, state):
-        """The Reference at state.t: the joint reference (and the force reference, guarded, for laws that
-        use force)."""
-        t, refs, law = state.t, self._refs, self._cfg.control_law
-        force = law.uses_force and refs.k > 0
-        pending = refs.force_pending
-        refs.sample(t, force)
-        target = refs.sample_target(t) if law.tracks == 'task' else None
-        if not force:
-            return Reference(refs.q_d, refs.qd_d, refs.qdd_d, target=target, wrench=refs.wrench)
-        guard = self._guard
-        if guard is not None:
-            if pending is not None and refs.force_pending is None:     # a stamped target took effect
-                guard.reset()
-            mask = self._cfg.force_mask
-            x_n = state.x[mask]
-            guard.check(x_n, state.xd[mask], state.f, refs.f_target)
-            if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
-                guard.substitute(x_n, state.f, refs.f_d, refs.fd_d, refs.fdd_d)
-        return Reference(refs.q_d, refs.qd_d, refs.qdd_d, refs.f_d, refs.fd_d, refs.fdd_d, target, refs.wrench)
 
     def _watch_goal(self, state, ref):
         """Tolerances of the trajectory followed: a path violation or a missed goal holds the position (the
@@ -298,18 +307,9 @@ class ControllerCore:
             return None
         return self._cfg.control_law.freeze(E, self._sat, self._tau)
 
-    def _integral_map(self, state, ref, err):
-        """(B = d tau / d int E of the law at this tick, (ki, kv)); B None when the law fails there."""
-        law = self._cfg.control_law
-        try:
-            B = law.integral_map(state, ref, err)
-        except (ValueError, np.linalg.LinAlgError):
-            B = None
-        return B, law.integral_gains()
-
     def _reinitialise(self, state, ref, err, tau0):
         """Bumpless transfer: the integral whose torque tau0 + B int E is the last torque sent; that torque."""
-        B, (ki, _) = self._integral_map(state, ref, err)
+        B, (ki, _) = integral_map(self._cfg.control_law, state, ref, err)
         if B is None:
             return tau0
         self._integral.reinitialise(B, tau0, self._tau, ki)
@@ -342,7 +342,7 @@ class ControllerCore:
             self.saturated_ticks += 1
             self.saturation_counts += self._sat
             if int_E is not None and dt > 0.0:
-                B, (ki, kv) = self._integral_map(state, ref, err)
+                B, (ki, kv) = integral_map(self._cfg.control_law, state, ref, err)
                 if B is not None:
                     self._integral.back_calculate(B, tau, self._tau, ki, kv, dt)
         return self._tau

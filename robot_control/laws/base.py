@@ -14,6 +14,10 @@ needs, so that nothing else has to know the law by its name:
                     layer scales the designed kp, kv, ki by the joint inertia M_ii(q0).
   motion_servo      it has the joint-space motion servo (kp, kv, ki per joint, an integral per joint);
                     False: no motion-servo gains and, unless integral_dim says otherwise, no integral.
+  param_rows        the law's own parameters (robot_control.param_table.Row): the controller's parameter
+                    table gathers them from the registry; Params: a frozen dataclass with one field per
+                    row, checked on creation (ArgumentError naming the field), which the configuration
+                    holds as law_params. Parameters every law shares stay in ControllerConfig.
 
 An instance is made for one ControllerConfig: its constructor checks what the law needs of the
 configuration (ArgumentError naming the field) and keeps what the tick reads. Per tick the core hands
@@ -22,6 +26,7 @@ its Errors and its torque. Every law is affine in its error integral, tau = tau(
 gives B = d tau / d int E in closed form (integral_map), so that the core's anti-windup and bumpless
 transfer never evaluate the law a second time.
 """
+import dataclasses
 from typing import NamedTuple
 
 import numpy as np
@@ -81,6 +86,25 @@ class Law:
     uses_force = False
     torque_gains = False
     motion_servo = True
+    param_rows = ()
+    Params = None
+
+    @classmethod
+    def make_params(cls, values):
+        """The law's Params from `values` (a mapping row name -> value, missing ones at their defaults; None:
+        all defaults) or a Params already made; None for a law without parameters. ArgumentError naming
+        law_params for a name the law does not have, or the field a Params check refused."""
+        if cls.Params is not None and isinstance(values, cls.Params):
+            return values
+        if values is not None and not hasattr(values, 'keys'):
+            raise ArgumentError('law_params', f'expected a mapping of the parameters of law {cls.name}, got '
+                                              f'{type(values).__name__}')
+        values = dict(values or {})
+        known = () if cls.Params is None else [f.name for f in dataclasses.fields(cls.Params)]
+        unknown = sorted(set(values) - set(known))
+        if unknown:
+            raise ArgumentError('law_params', f'{unknown} are not parameters of law {cls.name} (it has {known})')
+        return None if cls.Params is None else cls.Params(**values)
 
     def __init__(self, config):
         self.config = config

@@ -18,6 +18,7 @@ robot_control.laws.operational_space with F' = xdd_d and the wrench K E + D Ed +
 
     tau = rnea(q, qd, qdd_0) + J^T (Lambda (xdd_d - Jdot qd - J qdd_0) + K E + D Ed + F_ff).
 """
+import dataclasses
 import functools
 import math
 
@@ -27,6 +28,7 @@ from robot_control import validation
 from robot_control.laws.base import Errors, Law
 from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
                                                   check_law_fits, check_task_dimension, posture_gains)
+from robot_control.param_table import Row, gt, gt_eq, size
 from robot_control.validation import ArgumentError
 
 #: the six axes of a pose, in the order of cartesian_stiffness and cartesian_damping
@@ -111,6 +113,48 @@ def impedance(model, q, qd, x_d, xd_d, xdd_d, stiffness, damping_ratio=1.0, damp
                                                Lambda))
 
 
+#: the impedance law's parameters, in the order of the controller's parameter table
+PARAM_ROWS = (
+    Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
+        'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
+        [size(6, 'pose axis'), gt_eq(0)]),
+    Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio of the designed damping '
+        'D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
+        [gt_eq(0)]),
+    Row('cartesian_damping', 'double_array', (), 'impedance: explicit damping along x, y, z (N s/m) and '
+        'rx, ry, rz (N m s/rad); empty = designed from cartesian_damping_ratio',
+        [size(6, 'pose axis', empty_ok=True), gt_eq(0)]),
+    Row('max_pose_error', 'double_array', (0.1, 0.5), 'impedance (and hybrid toward a target_pose): largest '
+        'position (m) and rotation (rad) error fed to the law', [size(2, 'bound'), gt(0)]),
+)
+_DEFAULTS = {row.name: row.default for row in PARAM_ROWS}
+
+
+@dataclasses.dataclass(frozen=True)
+class ImpedanceParams:
+    """The impedance law's parameters (PARAM_ROWS), checked: cartesian_stiffness six values >= 0 (x, y, z
+    N/m; rx, ry, rz N m/rad); cartesian_damping six values >= 0 (N s/m, N m s/rad) or empty for the design
+    of cartesian_damping_ratio (>= 0); max_pose_error (m, rad) > 0, the bounds of the task error."""
+
+    cartesian_stiffness: tuple = _DEFAULTS['cartesian_stiffness']
+    cartesian_damping_ratio: float = _DEFAULTS['cartesian_damping_ratio']
+    cartesian_damping: tuple = _DEFAULTS['cartesian_damping']
+    max_pose_error: tuple = _DEFAULTS['max_pose_error']
+
+    def __post_init__(self):
+        set_ = functools.partial(object.__setattr__, self)
+        set_('cartesian_stiffness', tuple(validation.vector('cartesian_stiffness', self.cartesian_stiffness, 6).tolist()))
+        damping = () if self.cartesian_damping is None else self.cartesian_damping
+        set_('cartesian_damping', tuple(validation.vector('cartesian_damping', damping, 6).tolist()) if len(damping)
+             else ())
+        set_('cartesian_damping_ratio', validation.scalar('cartesian_damping_ratio', self.cartesian_damping_ratio,
+                                                          nonnegative=True))
+        limits = validation.vector('max_pose_error', self.max_pose_error, 2)
+        if min(limits.tolist()) <= 0.0:
+            raise ArgumentError('max_pose_error', f'expected two positive bounds (m, rad), got {limits.tolist()}')
+        set_('max_pose_error', tuple(limits.tolist()))
+
+
 class Impedance(Law):
     """The registry's 'impedance': the target is ~/target_pose once one came (at rest), else the joint
     reference seen in the task space (fk(q_d), J qd_d, J qdd_d + Jdot qd_d), which holds the pose at
@@ -120,17 +164,20 @@ class Impedance(Law):
     tracks = 'task'
     needs_task_space = True
     motion_servo = False
+    param_rows = PARAM_ROWS
+    Params = ImpedanceParams
 
     def __init__(self, config):
         super().__init__(config)
         model = self.model
         check_law_fits(self.name, model)
-        self.K = axis_values('cartesian_stiffness', config.cartesian_stiffness, model.task_axes)
-        explicit = config.cartesian_damping
-        self.D = None if explicit is None else np.diag(axis_values('cartesian_damping', explicit, model.task_axes))
-        self.ratio = config.cartesian_damping_ratio
+        params = config.law_params
+        self.K = axis_values('cartesian_stiffness', params.cartesian_stiffness, model.task_axes)
+        explicit = params.cartesian_damping
+        self.D = np.diag(axis_values('cartesian_damping', explicit, model.task_axes)) if explicit else None
+        self.ratio = params.cartesian_damping_ratio
         self.rotation = rotation_mask(model.task_axes)
-        self.limits = config.max_pose_error
+        self.limits = params.max_pose_error
         self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
 
     @property

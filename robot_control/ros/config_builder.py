@@ -46,6 +46,12 @@ def servo_gains(values, prefix, n, design, scale=None):
         raise ParameterError(prefix + exc.name, exc.reason) from None
 
 
+def designed_gains(values):
+    """The servo design (robot_control.gains.design) of zeta, omega_res, omega_n (0: the default) and integral."""
+    return gain_design.design(values['zeta'], values['omega_res'], values['omega_n'] or None,
+                              integral=values['integral'])
+
+
 def joint_inertia(model, q0):
     """diag M(q0) (q0 None: zeros): scales designed gains for independent_joint."""
     q = np.zeros(model.n) if q0 is None else np.array(q0, dtype=float)
@@ -86,8 +92,8 @@ class ConfigBuilder:
 
     def __call__(self, values):
         model = self.model(values)
-        design = gain_design.design(values['zeta'], values['omega_res'], values['omega_n'] or None,
-                                    integral=values['integral'])
+        design = designed_gains(values)
+        law = law_class(values['law'])
         scenario = values['scenario']
         q0 = scenarios.get(scenario).q0 if scenario else None
         motion = motion_gains(values, model, design, q0)
@@ -104,8 +110,7 @@ class ConfigBuilder:
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
-            cartesian_stiffness=values['cartesian_stiffness'], cartesian_damping=values['cartesian_damping'] or None,
-            cartesian_damping_ratio=values['cartesian_damping_ratio'], max_pose_error=values['max_pose_error'])
+            law_params={row.name: values[row.name] for row in law.param_rows})
         q_d = values['q_d']
         if q_d and len(q_d) != model.n:
             raise ParameterError('q_d', f'expected empty or {model.n} values (one per joint), got {len(q_d)}')

@@ -2,8 +2,9 @@
 
 Three stages: `scenario` (read-only) fills the defaults of everything else from
 robot_control.scenarios (model, model_params.*, joints, urdf, tip, force_axes, k_e, x_e);
-`model` (read-only) chooses the model_params.* rows; then every other parameter. Anything set
-explicitly wins over a scenario default.
+`model` (read-only) chooses the model_params.* rows; then every other parameter, among them each
+registered law's own rows (robot_control.laws.LAWS: Law.param_rows). Anything set explicitly wins
+over a scenario default.
 
 Model parameters use a flat dotted scheme that YAML nests naturally:
     model_params.m: 2.0          ->   model_params: {m: 2.0}
@@ -96,7 +97,7 @@ def rows(values):
         d['joints'] = CLOSED_FORM[model].joint_names
     get = d.get
     return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + force_rows(get, model)
-            + motion_rows() + impedance_rows() + node_rows())
+            + motion_rows() + law_rows() + node_rows())
 
 
 def robot_rows(get):
@@ -203,21 +204,9 @@ def motion_rows():
     ]
 
 
-def impedance_rows():
-    """The impedance law: stiffness, damping, the bound of the pose error."""
-    return [
-        Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
-            'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
-            [size(6, 'pose axis'), gt_eq(0)]),
-        Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio of the designed damping '
-            'D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
-            [gt_eq(0)]),
-        Row('cartesian_damping', 'double_array', (), 'impedance: explicit damping along x, y, z (N s/m) and '
-            'rx, ry, rz (N m s/rad); empty = designed from cartesian_damping_ratio',
-            [size(6, 'pose axis', empty_ok=True), gt_eq(0)]),
-        Row('max_pose_error', 'double_array', (0.1, 0.5), 'impedance (and hybrid toward a target_pose): largest '
-            'position (m) and rotation (rad) error fed to the law', [size(2, 'bound'), gt(0)]),
-    ]
+def law_rows():
+    """Each registered law's own parameters (Law.param_rows), in the registry's order."""
+    return [row for law in LAWS.values() for row in law.param_rows]
 
 
 def node_rows():

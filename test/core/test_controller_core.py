@@ -514,7 +514,7 @@ def test_operational_space_laws_need_task_dimension_at_most_the_joints():
                                          r"\['x', 'y'\] and 1 joints"):
         ControllerConfig(make_model('single_link'), law='hybrid', gains=ServoGains.uniform(2, 1.0, 1.0))
     with pytest.raises(ValueError, match='^law: impedance needs task dimension <= joints; the model has 2 task axes'):
-        ControllerConfig(make_model('single_link'), law='impedance', cartesian_stiffness=[100.0] * 6)
+        ControllerConfig(make_model('single_link'), law='impedance', law_params={'cartesian_stiffness': [100.0] * 6})
 
 
 def test_effort_limit_defaults_to_the_model():
@@ -607,3 +607,16 @@ def test_the_integral_map_of_every_law_is_its_torque_s_derivative_in_the_integra
     tau = law.torque(state, ref, err, z)
     fd = np.column_stack([law.torque(state, ref, err, z + e) - tau for e in np.eye(law.integral_dim)])
     np.testing.assert_allclose(law.integral_map(state, ref, err), fd, rtol=1e-9, atol=1e-9)
+
+
+def test_a_law_s_own_parameters_are_checked_naming_them():
+    xyz = make_model('cartesian_xyz')
+    cfg = ControllerConfig(xyz, law='impedance', law_params={'cartesian_damping_ratio': 0.7})
+    assert cfg.law_params.cartesian_damping_ratio == 0.7 and cfg.law_params.max_pose_error == (0.1, 0.5)
+    for law_params, match in (({'max_pose_error': (0.0, 1.0)}, '^max_pose_error: expected two positive'),
+                              ({'cartesian_stiffness': [1.0] * 5}, '^cartesian_stiffness:'),
+                              ({'stiffness': 1.0}, r"^law_params: \['stiffness'\] are not parameters of law impedance")):
+        with pytest.raises(ValueError, match=match):
+            ControllerConfig(xyz, law='impedance', law_params=law_params)
+    with pytest.raises(ValueError, match='^law_params: .* not parameters of law computed_torque'):
+        polar_config(law_params={'max_pose_error': (0.1, 0.5)})

@@ -81,3 +81,38 @@ def test_an_invalid_robot_description_is_named_as_such():
     assert err.value.name == 'robot_description'
     with pytest.raises(ParameterError, match='^urdf: model .urdf. needs urdf'):
         ConfigBuilder()(_values(model='urdf'))
+
+
+def test_a_law_with_its_own_parameter_is_one_class_and_one_registry_entry(monkeypatch):
+    """A law declares its parameter rows and its Params; once registered, its row is in the controller's
+    table (checked by its rules) and its value reaches the law through the config builder."""
+    import dataclasses
+
+    from robot_control.laws import Law
+    from robot_control.param_table import Row, gt
+
+    @dataclasses.dataclass(frozen=True)
+    class DampingParams:
+        damping: float = 2.0
+
+    class Damping(Law):
+        """tau = g(q) - d qd, d the law's own parameter (N m s/rad)."""
+        name = 'damping'
+        tracks = None
+        motion_servo = False
+        param_rows = (Row('damping', 'double', 2.0, 'damping law: viscous damping d, N m s/rad', [gt(0)]),)
+        Params = DampingParams
+
+        def torque(self, state, ref, err, int_E):
+            return self.model._g(state.q) - self.config.law_params.damping * state.qd
+
+    with pytest.raises(ParameterError, match='^law: '):
+        _values(scenario='polar_two_link', law='damping')
+    monkeypatch.setitem(LAWS, 'damping', Damping)
+    rows, values = params.TABLE.resolve()
+    assert rows['damping'].default == 2.0 and values['damping'] == 2.0
+    with pytest.raises(ParameterError, match='^damping: expected a positive number'):
+        _values(scenario='polar_two_link', law='damping', damping=-1.0)
+    cfg = ConfigBuilder()(_values(scenario='polar_two_link', law='damping', damping=5.0))
+    assert cfg.law_params == DampingParams(5.0) and cfg.control_law.name == 'damping'
+    assert ConfigBuilder()(_values(scenario='polar_two_link')).law_params is None     # computed torque: none
