@@ -1,7 +1,7 @@
-"""ControllerCore: the controller's per-tick work, without ROS.
+"""ControllerCore: the law's tick on the controller's time line, without ROS.
 
-The node calls update(t, q, qd, f_meas) once per joint_states message and publishes the torque it
-returns. One tick:
+robot_control.core.controller.Controller calls update_checked(t, q, qd, f_meas) once per accepted
+state (t in s on its time line) and returns the torque as its command. One tick:
 
   1. measure: the task state x = fk(q), xd = J qd, J, Jdot qd (laws that need a task space) and the
      force on the force axes: measured (f_meas) or the lecture's spring f = k_e (x - x_e), with
@@ -238,7 +238,7 @@ class ControllerCore:
 
     def update_checked(self, t, q, qd, f_meas=None):
         """update() on a state known to be valid (t a finite float, q and qd finite float64 (n,) arrays,
-        as robot_control.ros.conversions.JointStateReader gives them)."""
+        as robot_control.core.joint_states.JointStateReader gives them)."""
         law = self._cfg.control_law
         self._q[:] = q
         state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)

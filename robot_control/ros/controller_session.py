@@ -68,7 +68,7 @@ class ControllerSession:
 
     @property
     def core(self):
-        """The ControllerCore (read it, do not drive it from another thread)."""
+        """The Controller's ControllerCore, the law's tick (read it, do not drive it from another thread)."""
         return self._core
 
     @property
