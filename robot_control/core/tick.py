@@ -121,8 +121,7 @@ class ControllerCore:
         self._cfg = config
         self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
         self._integral = Integral._of_checked(config.integral_dim, config.integral_limit)
-        self._q = np.zeros(n)                    # the last measured position
-        self._err = None                         # the law's Errors of the last tick
+        self._state = self._err = None           # the State and the law's Errors of the last tick
         self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
         self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
         self._t = None
@@ -177,7 +176,7 @@ class ControllerCore:
     def hold_position(self):
         """Cancel the motion: hold the last measured position, at rest (an empty trajectory)."""
         self._require_active('hold')
-        self._refs.hold(self._t, self._q.copy())
+        self._refs.hold(self._t, self._state.q.copy())
         self.goal.cancel('cancelled by an empty trajectory')
 
     def set_goal(self, q_goal, duration=None):
@@ -240,8 +239,8 @@ class ControllerCore:
         """update() on a state known to be valid (t a finite float, q and qd finite float64 (n,) arrays,
         as robot_control.core.joint_states.JointStateReader gives them)."""
         law = self._cfg.control_law
-        self._q[:] = q
         state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)
+        self._state = state
         dt = self._advance(state)
         ref = sample_reference(self._cfg, self._refs, self._guard, state)
         if law.tracks == 'joint' and self.goal.active:
@@ -372,7 +371,7 @@ class ControllerCore:
     def reference(self):
         """(pos, vel, acc) of the last tick in the law's space: q_d, qd_d, qdd_d for the joint laws; per
         task axis x_d ... on motion axes and f_d, fd_d, fdd_d (N, N/s, N/s^2) on force axes."""
-        return self._err.ref
+        return None if self._err is None else self._err.ref
 
     @property
     def joint_reference(self):
@@ -382,7 +381,7 @@ class ControllerCore:
     @property
     def error(self):
         """(E, Ed) of the last tick, named like reference."""
-        return self._err.E, self._err.Ed
+        return (None, None) if self._err is None else (self._err.E, self._err.Ed)
 
     @property
     def integral_value(self):
