@@ -79,16 +79,18 @@ def contact_guard(cfg):
     return ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel, cfg.contact_max_speed)
 
 
-def sample_reference(cfg, refs, guard, state):
+def sample_reference(cfg, refs, guard, state, last=None):
     """The Reference at state.t from the References `refs`: the joint reference (and the force reference,
-    guarded by the ContactGuard `guard` or None, for laws that use force), the task target."""
+    guarded by the ContactGuard `guard` or None, for laws that use force), the task target. The arrays are
+    the References' own, sampled in place: `last`, the Reference of the last tick, is returned again when
+    it holds the same objects."""
     t, law = state.t, cfg.control_law
     force = law.uses_force and refs.k > 0
     pending = refs.force_pending
     refs.sample(t, force)
     target = refs.sample_target(t) if law.tracks == 'task' else None
     if not force:
-        return Reference(refs.q_d, refs.qd_d, refs.qdd_d, target=target, wrench=refs.wrench)
+        return _reference(last, refs.q_d, refs.qd_d, refs.qdd_d, None, None, None, target, refs.wrench)
     if guard is not None:
         if pending is not None and refs.force_pending is None:     # a stamped target took effect
             guard.reset()
@@ -97,7 +99,15 @@ def sample_reference(cfg, refs, guard, state):
         guard.check(x_n, state.xd[mask], state.f, refs.f_target)
         if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
             guard.substitute(x_n, state.f, refs.f_d, refs.fd_d, refs.fdd_d)
-    return Reference(refs.q_d, refs.qd_d, refs.qdd_d, refs.f_d, refs.fd_d, refs.fdd_d, target, refs.wrench)
+    return _reference(last, refs.q_d, refs.qd_d, refs.qdd_d, refs.f_d, refs.fd_d, refs.fdd_d, target, refs.wrench)
+
+
+def _reference(last, q_d, qd_d, qdd_d, f_d, fd_d, fdd_d, target, wrench):
+    """Reference(q_d, ...), or `last` when it holds exactly these objects (the joint and force references'
+    three arrays each come and go together)."""
+    if last is not None and last.q_d is q_d and last.f_d is f_d and last.target is target and last.wrench is wrench:
+        return last
+    return Reference(q_d, qd_d, qdd_d, f_d, fd_d, fdd_d, target, wrench)
 
 
 def integral_map(law, state, ref, err):
@@ -121,7 +131,7 @@ class ControllerCore:
         self._cfg = config
         self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
         self._integral = Integral._of_checked(config.integral_dim, config.integral_limit)
-        self._state = self._err = None           # the State and the law's Errors of the last tick
+        self._state = self._ref = self._err = None   # the State, Reference and the law's Errors of the last tick
         self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
         self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
         self._t = None
@@ -242,7 +252,7 @@ class ControllerCore:
         state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)
         self._state = state
         dt = self._advance(state)
-        ref = sample_reference(self._cfg, self._refs, self._guard, state)
+        self._ref = ref = sample_reference(self._cfg, self._refs, self._guard, state, self._ref)
         if law.tracks == 'joint' and self.goal.active:
             self._watch_goal(state, ref)
         self._err = err = law.errors(state, ref)

@@ -114,6 +114,7 @@ class Law:
                                        'URDF model)')
         dim = len(self.reference_names)
         self.E, self.Ed = np.zeros(dim), np.zeros(dim)
+        self._errors = None       # the joint laws' Errors: the same arrays every tick while the Reference's are
 
     @classmethod
     def servo_sizes(cls, model, force_axes):
@@ -145,7 +146,10 @@ class Law:
         next tick)."""
         np.subtract(ref.q_d, state.q, out=self.E)
         np.subtract(ref.qd_d, state.qd, out=self.Ed)
-        return Errors((ref.q_d, ref.qd_d, ref.qdd_d), self.E, self.Ed)
+        err = self._errors
+        if err is None or err.ref[0] is not ref.q_d:
+            self._errors = err = Errors((ref.q_d, ref.qd_d, ref.qdd_d), self.E, self.Ed)
+        return err
 
     def torque(self, state, ref, err, int_E):
         """tau (n,) for this tick: State, Reference, its Errors, the error integral int_E (integral_dim,) or None."""

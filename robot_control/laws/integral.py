@@ -80,7 +80,7 @@ class Integral:
         self._preset(validation.vector('value', value, self.n))
 
     def _preset(self, value):
-        np.clip(value, -self._limit, self._limit, out=self._value)
+        np.minimum(np.maximum(value, -self._limit), self._limit, out=self._value)
 
     def update(self, E, dt, hold=None):
         """value += E dt on entries not held, clamp to +-limit; E (n,), dt in s (>= 0). Returns value.
@@ -109,7 +109,7 @@ class Integral:
         step = E * dt
         if hold is not None:
             step[hold] = 0.0
-        return np.clip(self._value + step, -self._limit, self._limit)
+        return np.minimum(np.maximum(self._value + step, -self._limit), self._limit)
 
     def reinitialise(self, B, tau0, tau_sent, ki):
         """Bumpless transfer: the integral z (clamped) with tau0 + B z = tau_sent (n,), on the entries with

@@ -7,7 +7,7 @@ from robot_control import validation
 def _saturate(tau, limit, out, mask):
     """out = clip(tau, -limit, limit), mask = the clipped entries (|tau| > limit); checked arrays (n,),
     out not tau itself. Returns (out, mask)."""
-    np.clip(tau, -limit, limit, out=out)
+    np.minimum(np.maximum(tau, -limit, out=out), limit, out=out)     # np.clip's result, without its wrapper
     np.not_equal(out, tau, out=mask)
     return out, mask
 
