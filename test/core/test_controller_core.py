@@ -620,3 +620,29 @@ def test_a_law_s_own_parameters_are_checked_naming_them():
             ControllerConfig(xyz, law='impedance', law_params=law_params)
     with pytest.raises(ValueError, match='^law_params: .* not parameters of law computed_torque'):
         polar_config(law_params={'max_pose_error': (0.1, 0.5)})
+
+
+@pytest.mark.parametrize('case', sorted(CASES))
+def test_a_law_reads_its_inputs_and_writes_none_of_them(case):
+    """State and Reference are immutable tuples made for the tick; errors() and torque() leave every array
+    in them as it was."""
+    make, q0, f_meas = CASES[case]
+    core = ControllerCore(make(True))
+    law, seen = core.config.control_law, []
+    torque = law.torque
+
+    def watched(state, ref, err, int_E):
+        before = [None if a is None else np.array(a, copy=True) for a in (*state[1:], *ref[:6])]
+        tau = torque(state, ref, err, int_E)
+        after = [None if a is None else np.asarray(a) for a in (*state[1:], *ref[:6])]
+        seen.append(all((b is None and a is None) or np.array_equal(a, b) for a, b in zip(after, before)))
+        with pytest.raises(AttributeError):
+            state.q = None
+        return tau
+    law.torque = watched
+    if core.config.force_axes:
+        core.set_force_reference([4.0])
+    core.set_goal(q0 + 0.05)
+    for k in range(20):
+        core.update(k * DT, *random_state(q0.shape[0], 0.002, q0), f_meas)
+    assert len(seen) == 20 and all(seen)
