@@ -3,7 +3,7 @@
     python -m robot_control.demo --scenario polar_two_link          # what `make demo` runs
     python -m robot_control.demo --scenario iiwa --mode realtime --duration 5
     python -m robot_control.demo --experiment disturbance_pid --no-plot
-    python -m robot_control.demo --all                               # every experiment, for the README table
+    python -m robot_control.demo --all                               # every experiment, for docs/results.md
 
 A run starts two OS processes, `sim_bridge_node` (PyBullet: the robot) and `controller_node`,
 each with `--ros-args --params-file config/<scenario>.yaml` plus the experiment's overrides, on a

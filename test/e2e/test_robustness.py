@@ -18,8 +18,8 @@ in the test process; waits are bounded by deadlines, every child is stopped by i
 
 Sizes (runtime on 2 cores): 2,000 hypothesis examples per subscribed topic (8 topics), each one
 published and accounted for; flood 5 s; motions of 1.5-3 s of simulated time.
-The figures of the README table are written to out/robustness/summary.json (and .md) and printed
-at the end of the module.
+The figures of the table in docs/robustness.md are written to out/robustness/summary.json (and .md) and
+printed at the end of the module.
 """
 import contextlib
 import math
@@ -67,7 +67,7 @@ CONTROLLER_HAS_CONTACT_GUARD = 'contact_max_travel' in _controller_parameter_nam
 
 @pytest.fixture(scope='module', autouse=True)
 def figures(request):
-    """Writes out/robustness/summary.json and prints the README table after the module's tests."""
+    """Writes out/robustness/summary.json and prints the docs table after the module's tests."""
     yield TALLY
     path = TALLY.write()
     text = f'\nrobustness figures, {path}:\n{TALLY.table()}\n'
