@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 from dev import docs_params, docs_results
+from robot_control import scenarios
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / 'docs'
@@ -87,6 +88,18 @@ def test_readme_is_one_page():
 
 
 # -- the parameter tables --------------------------------------------------------------------------------
+#: a unit (or a ratio's "dimensionless") in a parameter's meaning
+UNIT = re.compile(r'\b(s|m|rad|N|kg|Hz)\b|1/s|m/s|N m|dimensionless|seconds per')
+
+
+def test_every_number_parameter_names_its_unit_in_every_scenario():
+    for scenario in ('', *sorted(scenarios.SCENARIOS)):
+        for node, table in docs_params.TABLES.items():
+            for name, kind, _, meaning, *_ in table.markdown_rows(scenario=scenario):
+                if kind.startswith('double'):
+                    assert UNIT.search(meaning) and '(SI)' not in meaning, (node, scenario, name, meaning)
+
+
 def test_check_detects_a_stale_parameter_table(tmp_path):
     stale = tmp_path / 'parameters.md'
     stale.write_text('<!-- params:controller:begin -->\nold\n<!-- params:controller:end -->\n'
