@@ -508,6 +508,36 @@ def test_invalid_parameter_is_rejected_with_a_reason_and_the_old_value_stays(ros
         assert ctrl.core.config is old_config
 
 
+#: (rule broken, value, the parameter that allows it, the kv designed then: 2 zeta w_n)
+GAIN_RULES = [('zeta', 0.5, 'allow_underdamped', 6.0),          # w_n = 0.5 omega_res = 6
+              ('omega_n', 7.0, 'allow_resonance', 14.0)]        # zeta = 1
+
+
+@pytest.mark.parametrize('name, value, override, kv', GAIN_RULES)
+def test_a_gain_rule_refusal_names_the_parameter_that_overrides_it_and_that_parameter_does(ros_context, name,
+                                                                                         value, override, kv):
+    """`ros2 param set /controller zeta 0.5` is refused with 'override: set the parameter allow_underdamped:
+    true'; that parameter exists (false by default, settable at run time) and, once set, the value is taken;
+    clearing it again while the design needs it is refused."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        assert ctrl.get_parameter(override).value is False
+        refused = ctrl.set_parameters([Parameter(name, value=value)])[0]
+        assert not refused.successful
+        assert refused.reason.endswith(f'override: set the parameter {override}: true'), refused.reason
+        assert ctrl.set_parameters([Parameter(override, value=True)])[0].successful
+        assert ctrl.set_parameters([Parameter(name, value=value)])[0].successful
+        assert list(ctrl.get_parameter('gains.kv').value) == [kv, kv]
+        back = ctrl.set_parameters([Parameter(override, value=False)])[0]
+        assert not back.successful and override in back.reason
+        assert ctrl.get_parameter(override).value is True
+
+
+@pytest.mark.parametrize('name, value, override, kv', GAIN_RULES)
+def test_a_gain_rule_override_given_at_start_up_designs_the_gains(ros_context, name, value, override, kv):
+    with rig(ros_context, **POLAR, **{name: value, override: True}) as (ex, ctrl, robot):
+        np.testing.assert_array_equal(ctrl.core.config.gains.kv, [kv, kv])
+
+
 def test_read_only_parameters_cannot_change(ros_context):
     with rig(ros_context, **POLAR) as (ex, ctrl, robot):
         for name, value in (('joints', ['a', 'b']), ('model', 'single_link'), ('scenario', 'iiwa')):
