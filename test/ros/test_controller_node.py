@@ -750,7 +750,7 @@ def test_main_runs_with_a_params_file_and_stops_cleanly_on_a_signal(sig):
             proc.wait()
 
 
-def test_main_exits_non_zero_naming_an_invalid_parameter():
+def test_main_exits_2_naming_a_bad_parameter_and_its_override():
     proc = _run_node('--params-file', os.path.join(ROOT, 'config', 'polar_two_link.yaml'), '-p', 'zeta:=0.5')
     try:
         out, _ = proc.communicate(timeout=DEADLINE)
@@ -758,8 +758,9 @@ def test_main_exits_non_zero_naming_an_invalid_parameter():
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    assert proc.returncode == 1
-    assert 'invalid parameter zeta: 0.5 breaks the rule zeta >= 1' in out
+    assert proc.returncode == 2
+    assert ('controller_node: bad parameter zeta: 0.5 breaks the rule zeta >= 1 (the lecture: no underdamped '
+            'response, for safety); override: set the parameter allow_underdamped: true') in out
 
 
 # -- joint_trajectory_controller semantics through the node ------------------------------------------------
