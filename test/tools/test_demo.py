@@ -2,7 +2,7 @@
 The lecture's experiments themselves are in test_experiments.py; the docs generator that tabulates
 the demo's summaries is tested in test_docs.py.
 
-Process tests start the demo as a subprocess on a claimed private domain (e2e_helpers) and check
+Process tests start the demo as a subprocess on a claimed private domain (support.e2e) and check
 that every process it started is gone afterwards: after a normal end, after Ctrl-C (SIGINT) and
 after SIGTERM. All waits are bounded by deadlines.
 """
