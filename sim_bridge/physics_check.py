@@ -28,6 +28,11 @@ def _floats(element, attribute, default):
     return np.array([float(v) for v in text.split()]) if text else np.array(default, dtype=float)
 
 
+def _in_link_axes(rotation, inertia):
+    """R I R^T: inertia (3, 3) about the com in the inertial frame's axes, in the link's axes (R: (3, 3))."""
+    return rotation @ inertia @ rotation.T
+
+
 def urdf_inertials(xml):
     """{link: (mass kg, com (3,) m, inertia (3, 3) kg m^2 about the com in link axes)} of URDF text
     `xml` (numbers checked by robot_control.urdf.checks.check); a link without <inertial>: zeros."""
@@ -42,7 +47,7 @@ def urdf_inertials(xml):
         xx, xy, xz, yy, yz, zz = (_floats(inertia, k, (0.0,))[0] for k in ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz'))
         tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
         out[link.get('name')] = (float(_floats(inertial.find('mass'), 'value', (0.0,))[0]),
-                                 _floats(origin, 'xyz', (0.0, 0.0, 0.0)), rotation @ tensor @ rotation.T)
+                                 _floats(origin, 'xyz', (0.0, 0.0, 0.0)), _in_link_axes(rotation, tensor))
     return out
 
 
@@ -54,7 +59,7 @@ def pybullet_inertials(client, body):
         name = p.getJointInfo(body, j, physicsClientId=client)[12].decode()
         mass, _, diagonal, com, orientation = p.getDynamicsInfo(body, j, physicsClientId=client)[:5]
         rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
-        out[name] = (mass, np.array(com), rotation @ np.diag(diagonal) @ rotation.T)
+        out[name] = (mass, np.array(com), _in_link_axes(rotation, np.diag(diagonal)))
     return out
 
 

@@ -8,7 +8,7 @@ nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True
 
 PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
 base, from a copy whose links without <inertial> have an explicit zero one (PyBullet's default
-would be 1 kg, 1 kg m^2) and whose mesh file names are absolute; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
+would be 1 kg, 1 kg m^2) and whose meshes are absolute file:// URIs; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
 (default 0.04) and URDF joint damping zeroed; the torque is re-sent before every stepSimulation
 (PyBullet clears applied torques after each step); fixed step dt without substeps.
 """
@@ -236,7 +236,8 @@ class World:
 
     @property
     def urdf(self):
-        """Path of the URDF file the simulated robot was loaded from (generated for closed forms)."""
+        """Path of the URDF file the simulated robot was loaded from: the checked copy of the given or
+        generated URDF (absolute file:// meshes, explicit zero <inertial>s, probe and payload if any)."""
         return self._spec.urdf
 
     @property

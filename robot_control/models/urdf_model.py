@@ -377,7 +377,8 @@ def _reference(full, movable, joints, q_locked):
 
 def _reduced(full, locked, q_ref):
     """The model with the joints named `locked` fixed at q_ref (pin.buildReducedModel); ArgumentError
-    naming `joints` (the selection decides what is locked) when Pinocchio cannot build it."""
+    naming `joints` (the selection decides what is locked) when Pinocchio cannot build it. The locked
+    joints of `full` are renamed after their frames (_rename_joint_frames) in place."""
     if not locked:
         return full
     ids = [full.getJointId(name) for name in locked]

@@ -134,9 +134,10 @@ def mesh_path(name, base):
 
 
 def with_absolute_meshes(xml, base):
-    """URDF text `xml` whose mesh file names are made absolute against directory `base` (the original
-    file's) by mesh_lookup, so the text can be written and loaded anywhere. A mesh found nowhere is an
-    ArgumentError naming `urdf`, the link, the mesh and the places looked."""
+    """URDF text `xml` whose mesh file names are made absolute 'file://' URIs (which PyBullet and ROS's
+    resource retriever both read) against directory `base` (the original file's) by mesh_lookup, so the
+    text can be written and loaded anywhere. A mesh found nowhere is an ArgumentError naming `urdf`,
+    the link, the mesh and the places looked."""
     import xml.etree.ElementTree as ET
     root = ET.fromstring(xml.lstrip())
     for link in root.iter('link'):
@@ -146,7 +147,7 @@ def with_absolute_meshes(xml, base):
             if path is None:
                 raise ArgumentError('urdf', f'link {link.get("name")!r}: mesh {name!r} not found; looked in '
                                             + '; '.join(places))
-            mesh.set('filename', path)
+            mesh.set('filename', 'file://' + path)
     return ET.tostring(root, encoding='unicode')
 
 

@@ -45,7 +45,8 @@ def test_with_absolute_meshes_rewrites_what_it_finds(tmp_path):
     xml = ('<robot name="r"><link name="l"><visual><geometry><mesh filename="package://pkg/meshes/a.stl"/>'
            '</geometry></visual></link></robot>')
     out = urdf.with_absolute_meshes(xml, str(tmp_path / 'pkg' / 'urdf'))
-    assert f'filename="{mesh}"' in out
+    assert f'filename="file://{mesh}"' in out
+    assert urdf.with_absolute_meshes(out, '/elsewhere') == out          # already absolute: as it is
 
 
 @pytest.mark.parametrize('name', ['package://gone/b.stl', 'http://example.com/b.stl', '/no/such/b.stl'])
