@@ -8,8 +8,9 @@ nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True
 
 PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
 base, from a copy whose links without <inertial> have an explicit zero one (PyBullet's default
-would be 1 kg, 1 kg m^2) and whose meshes are absolute file:// URIs; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
-(default 0.04) and URDF joint damping zeroed; the torque is re-sent before every stepSimulation
+would be 1 kg, 1 kg m^2) and whose meshes are absolute file:// URIs; default velocity motors
+disabled (VELOCITY_CONTROL, force 0); link linear/angular damping (default 0.04) and URDF joint
+damping zeroed; the torque is re-sent before every stepSimulation
 (PyBullet clears applied torques after each step); fixed step dt without substeps.
 """
 import math
@@ -89,7 +90,7 @@ def _surface(sc, surface):
 
 def _simulated_copy(path, tmpdir):
     """(copy of the URDF at `path` as PyBullet must load it, the URDF's warnings): checked
-    (robot_control.urdf.checks.check), its meshes found (absolute file names; ArgumentError naming
+    (robot_control.urdf.checks.check), its meshes found (absolute file:// URIs; ArgumentError naming
     `urdf` for one found nowhere) and an explicit zero <inertial> for every link without one, so
     that PyBullet simulates such a link massless, as the URDF (and the controller's model) means."""
     xml, where = urdf_files.read(path)
