@@ -88,13 +88,14 @@ def _bound_names(path):
         node = todo.pop()
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             names.add(node.name)
-        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            continue
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
             names.update((a.asname or a.name).split('.')[0] for a in node.names)
-        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
-            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
-            names.update(n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name))
-        else:
-            todo.extend(c for c in ast.iter_child_nodes(node) if isinstance(c, ast.stmt))
+        targets = (node.targets if isinstance(node, ast.Assign)
+                   else [node.target] if isinstance(node, (ast.AnnAssign, ast.AugAssign, ast.For))
+                   else [i.optional_vars for i in node.items] if isinstance(node, ast.With) else [])
+        names.update(n.id for t in targets if t for n in ast.walk(t) if isinstance(n, ast.Name))
+        todo.extend(c for c in ast.iter_child_nodes(node) if isinstance(c, ast.stmt))
     return names
 
 
@@ -135,10 +136,10 @@ def test_the_import_check_finds_a_missing_module_and_a_missing_name(tmp_path):
     (tmp_path / 'pkg').mkdir()
     (tmp_path / 'ws').mkdir()
     (tmp_path / 'test').mkdir()
-    (tmp_path / 'pkg' / '__init__.py').write_text('try:\n    X = 1\nexcept ImportError:\n    pass\n')
+    (tmp_path / 'pkg' / '__init__.py').write_text('try:\n    X = 1\nexcept ImportError:\n    pass\nfor Z in ():\n    pass\n')
     (tmp_path / 'pkg' / 'a.py').write_text('A = 1\n')
     (tmp_path / 'ws' / 'b.py').write_text('from pkg.a import A, B\n')
-    (tmp_path / 'test' / 't.py').write_text('import os\nimport pkg.a\nimport pkg.gone\nfrom pkg import X, a, Y\n\n\n'
+    (tmp_path / 'test' / 't.py').write_text('import os\nimport pkg.a\nimport pkg.gone\nfrom pkg import X, Z, a, Y\n\n\n'
                                            'def f():\n    from ws import b, c\n')
     assert unresolved_imports(str(tmp_path), ['pkg', 'ws', 'test'], ('pkg', 'ws')) == \
         ['ws/b.py:1: pkg.a.B', 'test/t.py:3: pkg.gone', 'test/t.py:4: pkg.Y', 'test/t.py:8: ws.c']
