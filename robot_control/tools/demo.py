@@ -43,7 +43,7 @@ from robot_control import scenarios, units
 from robot_control.laws import LAWS
 from robot_control.tools import demo_experiments as experiments
 from robot_control.tools import demo_metrics
-from robot_control.tools import demo_procs as procs
+from robot_control.tools import processes as procs
 
 NS = units.NS_PER_S
 ROOT = Path(__file__).resolve().parents[2]
@@ -522,7 +522,7 @@ def write_outputs(out_dir, summary, data, experiment, plot_title=None):
 
 
 def interrupted(exc):
-    """The KeyboardInterrupt (Ctrl-C, or SIGTERM/SIGHUP via demo_procs) behind `exc`, or None.
+    """The KeyboardInterrupt (Ctrl-C, or SIGTERM/SIGHUP via robot_control.tools.processes) behind `exc`, or None.
 
     A signal can arrive inside a C extension (e.g. rclpy's deserializer), which re-raises it as
     another exception caused by the KeyboardInterrupt: follow the cause/context chain.

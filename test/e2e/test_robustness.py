@@ -776,7 +776,7 @@ def impedance_rig():
     from support.e2e import E2E_DOMAINS
     from robot_control import scenarios
     from robot_control.tools.demo_experiments import IIWA_POSTURE
-    from robot_control.tools.demo_procs import DomainClaim
+    from robot_control.tools.processes import DomainClaim
     with DomainClaim(E2E_DOMAINS, start=9) as claim:
         rig = ControllerRig(claim.domain_id, scenarios.get('iiwa').joints, IIWA_POSTURE,
                             dict(scenario='iiwa', law='impedance', task_space='pose', effort_limits=[200.0] * 7,

@@ -24,7 +24,7 @@ import pytest
 
 from support import two_hosts as th
 from robot_control.models import for_scenario
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools.processes import DomainClaim
 
 OUT = os.path.join(th.ROOT, 'out', 'two_hosts')
 #: domain ids of these runs (the processes live in their own namespaces; claimed all the same)

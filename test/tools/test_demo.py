@@ -20,8 +20,8 @@ import pytest
 
 from support.e2e import E2E_DOMAINS
 from robot_control import scenarios
-from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, demo_procs
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, processes
+from robot_control.tools.processes import DomainClaim
 
 ROOT = Path(__file__).resolve().parents[2]
 SUMMARY_KEYS = ('scenario', 'mode', 'duration_s', 'samples', 'rms_error', 'max_error', 'final_error',
@@ -147,7 +147,7 @@ def test_demo_stops_every_process_on_a_signal(tmp_path, domain, sig, code):
         os.kill(p.proc.pid, sig)
         assert p.wait(30.0) == code, p.read()
     finally:
-        p.kill()          # its children die with it (demo_procs.die_with_parent)
+        p.kill()          # its children die with it (processes.die_with_parent)
     assert 'interrupted' in p.read()
     assert not _wait_gone(pids, 5.0), 'a child of the demo survived it'
 
@@ -192,15 +192,15 @@ def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
             for _ in range(1000):     # the handler runs here, and its Interrupted goes nowhere
                 pass
 
-    old = demo_procs.install_signal_handlers()
+    old = processes.install_signal_handlers()
     try:
-        demo_procs.check_interrupted()          # nothing received yet
+        processes.check_interrupted()          # nothing received yet
         Finalized()
-        with pytest.raises(demo_procs.Interrupted, match='SIGTERM'):
-            demo_procs.check_interrupted()
+        with pytest.raises(processes.Interrupted, match='SIGTERM'):
+            processes.check_interrupted()
     finally:
-        demo_procs.restore_signal_handlers(old)
-    demo_procs.check_interrupted()              # restored: forgotten
+        processes.restore_signal_handlers(old)
+    processes.check_interrupted()              # restored: forgotten
 
 
 def test_a_process_that_hangs_after_a_signal_is_ended_with_its_children(tmp_path):
@@ -208,9 +208,9 @@ def test_a_process_that_hangs_after_a_signal_is_ended_with_its_children(tmp_path
     force_exit_after s after SIGTERM the stacks are printed, the child is stopped and the exit status is 130.
     The pid is printed inside the `try`, so the SIGTERM sent after reading it always lands where it is caught."""
     script = ('import sys, time\n'
-              'from robot_control.tools import demo_procs\n'
-              'demo_procs.install_signal_handlers(force_exit_after=1.0)\n'
-              'child = demo_procs.ProcessSet().start("sleeper", [sys.executable, "-c", "import time; time.sleep(600)"],'
+              'from robot_control.tools import processes\n'
+              'processes.install_signal_handlers(force_exit_after=1.0)\n'
+              'child = processes.ProcessSet().start("sleeper", [sys.executable, "-c", "import time; time.sleep(600)"],'
               ' dict(__import__("os").environ), sys.argv[1])\n'
               'ready = False\n'
               'while True:\n'
@@ -245,7 +245,7 @@ def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
                 'signal.signal(signal.SIGTERM, signal.SIG_IGN)\n'
                 'print("ready", flush=True)\n'
                 'time.sleep(600)\n')
-    p = demo_procs.ManagedProcess('stubborn', [sys.executable, '-c', stubborn], dict(os.environ),
+    p = processes.ManagedProcess('stubborn', [sys.executable, '-c', stubborn], dict(os.environ),
                                   tmp_path / 'stubborn.log').start()
     try:
         deadline = time.monotonic() + 30
@@ -257,27 +257,27 @@ def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
         if p.running():
             os.killpg(p.pid, signal.SIGKILL)
     assert code == -signal.SIGKILL and p.stop_signal == signal.SIGKILL and not p.running()
-    dead = demo_procs.ManagedProcess('dies', [sys.executable, '-c', 'print("bye"); raise SystemExit(3)'],
+    dead = processes.ManagedProcess('dies', [sys.executable, '-c', 'print("bye"); raise SystemExit(3)'],
                                      dict(os.environ), tmp_path / 'dies.log').start()
     dead.proc.wait(timeout=30)
-    with pytest.raises(demo_procs.ProcessError, match=r'(?s)dies \(pid \d+\) exited with status 3.*bye'):
+    with pytest.raises(processes.ProcessError, match=r'(?s)dies \(pid \d+\) exited with status 3.*bye'):
         dead.check_alive()
     dead.stop()
 
 
 def test_ros_env_keeps_dds_on_this_machine():
-    env = demo_procs.ros_env(77, {'ROS_DOMAIN_ID': '0', 'ROS_STATIC_PEERS': '10.0.0.2', 'PATH': '/bin'})
+    env = processes.ros_env(77, {'ROS_DOMAIN_ID': '0', 'ROS_STATIC_PEERS': '10.0.0.2', 'PATH': '/bin'})
     assert env['ROS_DOMAIN_ID'] == '77' and env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
     assert 'ROS_STATIC_PEERS' not in env and env['PATH'] == '/bin'
     with pytest.raises(ValueError, match='^domain_id'):
-        demo_procs.ros_env(300)
+        processes.ros_env(300)
 
 
 def test_private_domains_are_claimed_from_the_top_of_ros_safe_range(tmp_path):
     """Demo and bench runs take 101, 100, ... (ROS's Linux-safe 0..101, clear of the tests' 1..92)."""
-    ids = demo_procs.PRIVATE_DOMAIN_IDS
+    ids = processes.PRIVATE_DOMAIN_IDS
     assert max(ids) == 101 and min(ids) >= 1 and list(ids) == sorted(ids, reverse=True)
-    with demo_procs.private_domain(directory=tmp_path) as a, demo_procs.private_domain(directory=tmp_path) as b:
+    with processes.private_domain(directory=tmp_path) as a, processes.private_domain(directory=tmp_path) as b:
         assert (a.domain_id, b.domain_id) == (101, 100)
 
 
@@ -493,7 +493,7 @@ def test_lost_ticks_are_reported_as_time_ranges():
 def test_an_interrupt_inside_a_c_extension_still_counts_as_an_interrupt():
     try:
         try:
-            raise demo_procs.Interrupted('signal SIGTERM')
+            raise processes.Interrupted('signal SIGTERM')
         except KeyboardInterrupt as exc:
             raise TypeError('Unable to convert function return value to a Python type!') from exc
     except TypeError as exc:
