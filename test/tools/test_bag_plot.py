@@ -117,6 +117,9 @@ def test_plot_from_a_recorder_bag(tmp_path):
     assert [a.get_ylabel() for a in rows[0]] == ['position [rad]', 'position [m]']
     assert [a.get_ylabel() for a in rows[2]] == ['torque [N m]', 'joint force [N]']
     np.testing.assert_array_equal(rows[0][1].get_lines()[0].get_ydata(), q_d[:, 1])
+    legends = [[t.get_text() for t in rows[k][0].get_legend().get_texts()] for k in range(3)]
+    assert legends == [['desired $q_d$ (/controller/reference)', 'actual $q$ (/joint_states)'],
+                       ['$e = q_d - q$ (/controller/error)'], ['$\\tau$ applied (/joint_states)', 'limit \u00b160']]
     assert sorted(line.get_ydata()[0] for line in rows[2][0].get_lines() if line.get_linestyle() == '--') \
         == [-60.0, 60.0]
     check_no_offset(fig)
@@ -149,6 +152,10 @@ def test_a_task_space_run_plots_motion_axes_joint_efforts_and_the_force(tmp_path
     rows = axes_by_row(tracking_figure(data))
     assert [len(r) for r in rows] == [1, 1, 2, 1]
     assert rows[3][0].get_title() == 'contact force x' and rows[0][0].get_title() == 'y'
+    assert [t.get_text() for t in rows[3][0].get_legend().get_texts()] \
+        == ['reference $f_d$ (/controller/reference)', 'measured $f$ (/ft_sensor/wrench)']
+    assert [t.get_text() for t in rows[0][0].get_legend().get_texts()][1] \
+        == 'actual $q$ (/controller/reference \u2212 /controller/error)'
 
 
 # ---------------------------------------------------------------- a `ros2 bag record` bag (sqlite3)
@@ -254,6 +261,28 @@ def test_plot_from_a_ros2_bag_record_sqlite3_bag(tmp_path):
         panels = rows[2 * block] + rows[2 * block + 1]
         assert [a.get_title() for a in panels] == IIWA and {a.get_ylabel() for a in panels} == {label}
     assert all(a.get_shared_x_axes().joined(a, fig.axes[0]) for a in fig.axes)
+    check_no_offset(fig)
+
+
+def test_a_bag_of_joint_states_and_commands_plots_only_those(tmp_path):
+    """No reference or error topic, no effort in joint_states, no wrench: positions and the commanded
+    torques, each legend naming its topic; no q_d line, no error block, no force block."""
+    messages, (stamps, q, q_d, tau) = iiwa_messages(N=200)
+    bag = recorder_bag(tmp_path / 'bag', [m for m in messages if m[0] != '/arm/controller/reference'])
+    data = tracking_data(bag)
+    assert np.isnan(data['q_d']).all() and np.isnan(data['e']).all() and data['tau_kind'] == 'commanded'
+    fig = tracking_figure(data, tmp_path / 'tracking.png')
+    rows = axes_by_row(fig)
+    assert [len(r) for r in rows] == [4, 3, 4, 3]  # position and torque, 4 + 3 panels each
+    assert {a.get_ylabel() for a in fig.axes} == {'position [rad]', 'torque [N m]'}
+    for block, legend in enumerate([['actual $q$ (/arm/joint_states)'],
+                                    ['$\\tau$ commanded (/arm/robot_joint_commands)']]):
+        panels = rows[2 * block] + rows[2 * block + 1]
+        assert [a.get_title() for a in panels] == IIWA
+        assert all([t.get_text() for t in a.get_legend().get_texts()] == legend for a in panels)
+        assert all([line.get_label() for line in a.get_lines()] == legend for a in panels)
+    np.testing.assert_array_equal(rows[0][0].get_lines()[0].get_ydata(), q[:, 0])
+    np.testing.assert_array_equal(rows[2][0].get_lines()[0].get_ydata(), tau[:, 0])
     check_no_offset(fig)
 
 
