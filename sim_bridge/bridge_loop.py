@@ -542,8 +542,8 @@ class RealtimeLoop(BridgeLoop):
         now = self._clock()
         self._pacer.anchor(now, 0)
         self._restart_timer()
-        self._rate.reset(now, t)
         super()._restart()
+        self._rate.reset(now, self.world.t_ns)      # after the warm-up: it is not paced
 
     def _pacing(self):
         cfg, d, overruns = self.cfg, self._deadline, self._pacer.overruns

@@ -122,8 +122,8 @@ class SensorModel:
 
 
 def model(values):
-    """SensorModel from checked parameter values (rows()' rules hold), or ParameterError: in realtime mode a
-    measurement delay of control_period or more times command_timeout / control_period ticks."""
+    """SensorModel from checked parameter values (rows()' rules hold), or ParameterError naming
+    delay.measurement_ticks when, in realtime mode, the delay (ticks x control_period) reaches command_timeout."""
     n = len(values['joints'])
     d = values['delay.measurement_ticks']
     if values['mode'] == 'realtime' and d * values['control_period'] >= values['command_timeout']:
@@ -176,7 +176,6 @@ class Sensors:
         self._counts = bool(np.any(self._encoded))
         self._wrench = m.wrench_modelled
         self._line = collections.deque(maxlen=m.measurement_ticks + 1)
-        self.t_ns = world.t_ns
         self.restart()
 
     def restart(self):
