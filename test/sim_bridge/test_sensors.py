@@ -200,6 +200,23 @@ def test_lockstep_measurement_delay_publishes_the_state_of_d_ticks_ago_stamped_t
     assert rec.rows[-1]['q'][1] > 0.6 and not lp.brakes_engaged and not rec.rows[-1]['braked']    # PD at work
 
 
+def test_realtime_measurement_delay_answers_are_timely_and_paired_by_the_published_stamp(loop):
+    """Realtime, d = 2: pacing starts after the braked warm-up; a command answering the latest published state
+    (stamped 2 ticks before the World's time) is fresh, releases the brakes and counts as a deadline hit."""
+    lp, rec = loop(**{'delay.measurement_ticks': 2})
+    assert (rec.rows[0]['stamp'], rec.rows[0]['t'], lp.ticks) == (0, 2 * MS, 0) and rec.world.braked
+    for k in range(1, 51):
+        row = rec.rows[-1]
+        lp.on_joint_command(row['stamp'], JOINTS, pd(row['q'], row['qd']))
+        rec.now = k * MS
+        lp.on_timer()
+    assert [r['stamp'] for r in rec.rows] == [k * MS for k in range(51)]
+    assert all(r['t'] - r['stamp'] == 2 * MS for r in rec.rows)
+    assert lp.outdated_commands == 0 and not lp.brakes_engaged and not rec.world.braked
+    values = {s.name: s.values for s in lp.diagnostics()}
+    assert values['pacing']['deadline_hits'] == 50 and values['pacing']['deadline_misses'] == 0
+
+
 def test_lockstep_actuation_delay_changes_the_held_torque_d_ticks_after_the_command(loop):
     a = 2
     lp, rec = loop(mode='lockstep', **{'delay.actuation_ticks': a})
