@@ -3,9 +3,12 @@ brakes, pause and reset, refused sources, diagnostics content) are sim_bridge.br
 this node translates messages to and from it.
 
 Publishes `/clock` (rosgraph_msgs/Clock, every clock_period of simulation time), `joint_states`
-(sensor_msgs/JointState: position, velocity, effort = the torque actually applied; header.stamp =
-simulation time), `ft_sensor/wrench` (geometry_msgs/WrenchStamped: force and torque the robot
-exerts on the surface, world axes, frame `wrench_frame_id`; only while it has a subscriber) and
+(sensor_msgs/JointState: position, velocity, effort = the joint torque a link-side torque sensor
+measures, i.e. the actuator torque applied less the drive's friction and rotor inertia;
+header.stamp = the simulation time of the measurement), `ft_sensor/wrench`
+(geometry_msgs/WrenchStamped: force and torque the robot exerts on the surface, world axes, frame
+`wrench_frame_id`; only while it has a subscriber), both as the robot's driver delivers them (noise,
+encoder counts, bias, measurement delay: sim_bridge.sensors; by default exactly as simulated), and
 `/diagnostics` (statuses `<node name>: pacing`, `: commands`, `: brakes`, hardware_id the scenario
 or URDF, stamped with simulation time; every diagnostics_period and at once when the brakes
 change) and `robot_description` (std_msgs/String, transient local: the URDF of the simulated robot,
@@ -168,26 +171,26 @@ class SimBridge(ParameterNode):
 
     # -- out: what the loop asks for -------------------------------------------------------------
     def _publish_state(self, in_loop, with_clock):
-        """Publish the World's state: the tick's ft_sensor/wrench (the controller pairs them by stamp),
-        joint_states (in lockstep the controller waits for it), then /clock when `with_clock`; returns
-        the wall time (ns) at which joint_states went out.
+        """Publish the measured state (the loop's `measured`: the World's readings as its driver delivers them,
+        sim_bridge.sensors, stamped when measured): the tick's ft_sensor/wrench (the controller pairs them by
+        stamp), joint_states (in lockstep the controller waits for it), then /clock (the World's time) when
+        `with_clock`; returns the wall time (ns) at which joint_states went out.
 
         ft_sensor/wrench is VOLATILE: without a subscriber nobody misses it. `in_loop` (a tick of the
         running loop): whether it has one was counted after the previous state, off the loop's critical
         path (a count is a query of the ROS graph), so a subscriber that appears mid-run gets the wrench from
         the next tick on; a first or re-published state counts now."""
-        w = self._world
-        q, qd, tau = w.state_values()
-        t = w.t_ns
+        m = self._loop.measured
+        q, qd, tau = m.state_values()
+        t = m.t_ns
         if not in_loop:
             self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0
         if self._wrench_wanted:
-            f, m = w.contact_wrench()
-            self._pub_wrench.publish(self._wrench_encoder.encode(t, f, m))
+            self._pub_wrench.publish(self._wrench_encoder.encode(t, *m.contact_wrench()))
         self._pub_js.publish(self._js_encoder.encode(t, q, qd, tau))
         wall = time.monotonic_ns()
         if with_clock:
-            self._set_stamp(t)
+            self._set_stamp(self._world.t_ns)
             self._pub_clock.publish(self._clock_msg)
         self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0    # for the next tick
         return wall

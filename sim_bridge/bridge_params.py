@@ -7,6 +7,7 @@ Stages: `scenario` and `urdf` choose the robot, `joints` defaults to the scenari
 other default is the scenario's own value (joints, initial positions, surface, physical
 parameters), so `ros2 param get` shows what the simulator really uses. Only real_time_factor,
 command_timeout, lockstep_timeout, disturbance.*, pause_at and diagnostics_period may change at run time.
+The sensor model's rows (noise.*, encoder_resolution, wrench_bias, delay.*, seed) are sim_bridge.sensors'.
 
 `sim_params.*` are the simulated robot's true physical parameters (one per parameter of the
 scenario's closed-form model, e.g. m and gravity for polar_two_link): set them differently from
@@ -28,6 +29,7 @@ from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.validation import ArgumentError
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
+from sim_bridge import sensors
 
 MODES = ('realtime', 'lockstep')
 SIM_PARAMS = 'sim_params.'
@@ -139,7 +141,7 @@ def rows(values):
     return out
 
 
-TABLE = Table('sim_bridge', robot_rows, joints_rows, rows)
+TABLE = Table('sim_bridge', robot_rows, joints_rows, rows, sensors.rows)
 
 
 @dataclass(frozen=True)
@@ -172,6 +174,7 @@ class BridgeConfig:
     diagnostics_period: float
     pause_at: float
     gui: bool
+    sensors: sensors.SensorModel
 
     @property
     def n(self):
@@ -230,7 +233,7 @@ def build(values):
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
         payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
         wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], pause_at=v['pause_at'],
-        gui=v['gui'])
+        gui=v['gui'], sensors=sensors.model(v))
 
 
 def validate(values):

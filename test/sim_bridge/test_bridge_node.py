@@ -136,6 +136,21 @@ def test_contact_wrench_is_published(harness):
     assert force[0] == pytest.approx(10.0, rel=0.02) and abs(force[1]) < 1e-6
 
 
+def test_sensor_noise_and_the_measurement_delay_reach_joint_states(harness):
+    """Noise on positions and efforts (sim_bridge.sensors) is in the published messages; with a delay of 2 ticks
+    the states are stamped 0, 1, 2 ms ... when measured while /clock, the World's time, runs 2 ms ahead."""
+    h = harness(hold_polar, mode='lockstep', clock_period=0.0, noise__position_std=[1e-3, 1e-3],
+                noise__effort_std=[0.5, 0.5], delay__measurement_ticks=2, seed=3)
+    assert h.spin_until(lambda: min(len(h.probe.states), len(h.probe.clock)) >= 201, timeout=20.0)
+    stamps = [s[0] for s in h.probe.states[:201]]
+    assert stamps == [k * MS for k in range(201)]
+    assert h.probe.clock[:201] == [t + 2 * MS for t in stamps]
+    q = np.array([s[2] for s in h.probe.states[:201]])
+    effort = np.array([s[4] for s in h.probe.states[1:201]])
+    np.testing.assert_allclose((q - [0.0, 0.5]).std(axis=0), [1e-3, 1e-3], rtol=0.2)    # held still: the noise
+    np.testing.assert_allclose((effort - POLAR.g(np.array([0.0, 0.5]))).std(axis=0), [0.5, 0.5], rtol=0.2)
+
+
 # -- lockstep handshake, pause, reset --------------------------------------------------------------
 def test_lockstep_waits_for_its_command_and_republishes(harness):
     h = harness(None, mode='lockstep', lockstep_timeout=0.02)
@@ -223,8 +238,12 @@ def _pd(q_d, kp, kv):
     return lambda t, q, qd: kp * (q_d - q) - kv * qd
 
 
+def _polar_pd(t_ns, q, qd):
+    return POLAR.g(q) + 36.0 * (np.array([0.5, 0.8]) - q) - 12.0 * qd
+
+
 @pytest.mark.parametrize('scenario, controller', [
-    ('polar_two_link', lambda t, q, qd: POLAR.g(q) + 36.0 * (np.array([0.5, 0.8]) - q) - 12.0 * qd),
+    ('polar_two_link', _polar_pd),
     ('iiwa', _pd([0.3, 0.2, -0.2, -1.0, 0.1, 0.8, 0.2], 400.0, 40.0)),
 ])
 def test_lockstep_runs_are_bit_identical(scenario, controller):
@@ -236,6 +255,14 @@ def test_lockstep_runs_are_bit_identical(scenario, controller):
     for other in runs[1:]:
         for a, b in zip(runs[0], other):
             assert a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def test_lockstep_runs_with_sensor_noise_and_delays_repeat_for_one_seed_and_differ_for_another():
+    noisy = {'noise__position_std': [1e-3, 1e-3], 'noise__velocity_std': [0.01, 0.01],
+             'encoder_resolution': [0.0, 1e-4], 'delay__measurement_ticks': 2, 'delay__actuation_ticks': 1}
+    first, again, other = [run_lockstep('polar_two_link', _polar_pd, 200, seed=seed, **noisy) for seed in (5, 5, 6)]
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(first, again))
+    assert np.abs(first[1] - other[1]).max() > 1e-4
 
 
 # -- realtime: brakes on a stale command ------------------------------------------------------------
