@@ -418,6 +418,34 @@ def test_runtime_parameter_changes_are_validated(harness):
     assert described.read_only and 's' in described.description
 
 
+def test_every_bad_run_time_set_is_refused_naming_the_parameter_and_the_loop_runs_on(harness):
+    """Every parameter that may change at run time, set through the parameter service (as `ros2 param set`) to
+    what its type and rules refuse, on a robot without a tip link (scenario '' with a URDF), and a Cartesian
+    disturbance force there (which only the World can refuse: checked before the set is committed). Each set
+    is answered, refused with the reason naming the parameter, and changes nothing; the lockstep loop, its
+    states answered by commands, runs on."""
+    from sim_bridge import bridge_params
+    from support import bad_params
+    h = harness(lambda t, q, qd: [0.0], scenario='', urdf='single_link.urdf', joints=['theta'],
+                initial_positions=[0.0], mode='lockstep')
+    b = h.bridge
+    assert b.world.tip is None
+    set_ = bad_params.setter(h.probe, 'sim_bridge', h.spin_until)
+    rows, values = bad_params.rows_and_values(bridge_params.TABLE, b)
+    extra = {'disturbance.cartesian_force': [('on a robot without a tip link', [0.0, 0.0, -1.0])]}
+    cfg, tried = b.cfg, 0
+    for row in rows:
+        for what, value in bad_params.bad_values(row, values, extra.get(row.name, ())):
+            bad_params.check_refused(set_(row.name, value), row.name, what)
+            tried += 1
+    assert b.cfg is cfg and bad_params.rows_and_values(bridge_params.TABLE, b)[1] == values
+    reason = set_('disturbance.cartesian_force', [0.0, 0.0, -1.0]).reason
+    assert reason == 'disturbance.cartesian_force: this robot has no tip link to apply it at'
+    t, accepted = b.world.t_ns, b.loop.mapper.accepted
+    assert h.spin_until(lambda: b.world.t_ns >= t + 50 * MS)        # stepped by the probe's answers
+    assert b.loop.mapper.accepted >= accepted + 50 and tried >= 3 * len(rows)
+
+
 def test_a_world_error_names_the_parameter(ros_context):
     """The World names its argument q0; the bridge names the parameter initial_positions."""
     from robot_control.param_table import ParameterError
