@@ -216,6 +216,10 @@ def build(values):
             raise ParameterError('surface.enable', f'scenario {scenario!r} has no surface')
         if not v['surface.k_e'] > 0.0:
             raise ParameterError('surface.k_e', f'expected a positive stiffness (N/m), got {v["surface.k_e"]}')
+    for name in ('payload.mass', 'disturbance.cartesian_force'):
+        if sc is None and np.any(v[name]):
+            raise ParameterError(name, "needs a tip link to act at: a scenario's robot has one (parameter "
+                                       "scenario); a custom URDF robot (scenario '') has none")
     sim_params = {k[len(SIM_PARAMS):]: value for k, value in v.items() if k.startswith(SIM_PARAMS)}
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=tuple(joints), initial_positions=np.array(v['initial_positions']),

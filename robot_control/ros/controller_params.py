@@ -132,10 +132,14 @@ def servo_rows():
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
         Row('zeta', 'double', 1.0, 'designed damping ratio, dimensionless',
-            [custom('>= 1 (no underdamping)')]),
+            [gt(0), custom('>= 1 (no underdamping) unless allow_underdamped')]),
+        Row('allow_underdamped', 'bool', False, 'allow a designed zeta < 1 (an underdamped, oscillating '
+            'response, which the lecture rules out for safety)'),
         Row('omega_res', 'double', 12.0, 'lowest structural resonance, rad/s', [gt(0)]),
         Row('omega_n', 'double', 0.0, 'designed natural frequency, rad/s; 0 = 0.5 omega_res',
-            [gt_eq(0), custom('<= 0.5 omega_res')]),
+            [gt_eq(0), custom('<= 0.5 omega_res unless allow_resonance')]),
+        Row('allow_resonance', 'bool', False, 'allow a designed omega_n > 0.5 omega_res (a servo fast enough '
+            'to excite the structural resonance)'),
         Row('kp', 'double_array', (), 'explicit Kp diagonal (empty = designed): 1/s^2 (computed torque, hybrid '
             'motion axes) or N m/rad, N/m (independent_joint)', gains),
         Row('kv', 'double_array', (), 'explicit Kv diagonal (empty = designed): 1/s or N m s/rad, N s/m',

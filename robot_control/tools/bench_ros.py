@@ -102,12 +102,10 @@ class Children:
 
 def node_executor(module):
     """The executor `module`'s main() spins by default: the default of its --executor option
-    ('events' or 'single'), 'single' (SingleThreadedExecutor) for a node without that option."""
-    parse = getattr(importlib.import_module(module), '_parse_args', None)
-    try:
-        return getattr(parse([]), 'executor', 'single') if parse else 'single'
-    except SystemExit:
-        return 'single'
+    ('events' or 'single'; a node's ENTRY, robot_control.ros.entry), 'single' (SingleThreadedExecutor)
+    for a module without one."""
+    node_entry = getattr(importlib.import_module(module), 'ENTRY', None)
+    return node_entry.options([module]).executor if node_entry else 'single'
 
 
 #: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)

@@ -472,10 +472,10 @@ def _run_node(*ros_args, timeout=30):
     (['-p', 'mode:=fast'], 'mode'),
     (['-p', 'phisics_step:=0.001'], 'phisics_step'),
 ])
-def test_bad_startup_parameter_exits_nonzero_naming_it(args, name):
+def test_bad_startup_parameter_exits_2_naming_it(args, name):
     result = _run_node(*args)
-    assert result.returncode != 0
-    assert f'bad parameter: {name}:' in result.stderr
+    assert result.returncode == 2
+    assert f'sim_bridge_node: bad parameter {name}: ' in result.stderr
 
 
 @pytest.mark.parametrize('executor, sig', [('events', signal.SIGINT), ('single', signal.SIGTERM)])
