@@ -58,7 +58,6 @@ import numpy as np
 from robot_control import units
 from robot_control.core.throttle import Throttle
 from robot_control.validation import ArgumentError
-from sim_bridge.disturbance import Disturbance
 from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard)
 
@@ -180,21 +179,13 @@ class BridgeLoop(abc.ABC):
     def _pacing(self):
         """(level, message, {key: value}) of the mode's pacing, for diagnostics."""
 
-    def check(self, cfg):
-        """ArgumentError naming what configure(cfg) would refuse: a FIXED field that changed, a disturbance the
-        World cannot take (a Cartesian force on a robot without a tip link). The node checks a run-time change
-        with it before committing it, so configure() never fails on a committed change."""
-        changed = [name for name in FIXED if getattr(cfg, name) != getattr(self.cfg, name)]
-        if changed:
-            raise ArgumentError(changed[0], 'cannot change while the loop runs')
-        w = self.world
-        Disturbance(w.n, cfg.disturbance_joint_torque, cfg.disturbance_cartesian_force, has_tip=w.tip is not None)
-
     def configure(self, cfg):
         """Apply a new BridgeConfig: command_timeout, pause_at and the disturbance (realtime also the real-time
-        factor); ArgumentError (nothing applied) where check(cfg) refuses it."""
+        factor). The FIXED fields must not change (ArgumentError naming the first that does)."""
         old = self.cfg
-        self.check(cfg)
+        changed = [name for name in FIXED if getattr(cfg, name) != getattr(old, name)]
+        if changed:
+            raise ArgumentError(changed[0], 'cannot change while the loop runs')
         self.cfg = cfg
         self._watchdog.timeout_ns = cfg.command_timeout_ns
         self._guard.timeout_ns = cfg.command_timeout_ns

@@ -79,9 +79,10 @@ class SimBridge(ParameterNode):
 
     def __init__(self, node_name='sim_bridge', *, world_factory=make_world, **kwargs):
         super().__init__(node_name, **kwargs)
-        self._world = self._loop = None
+        self._world = None
         try:
-            self._params = ParameterEngine(self, bridge_params.TABLE, self._build, apply=self._apply_parameters)
+            self._params = ParameterEngine(self, bridge_params.TABLE, bridge_params.build,
+                                           apply=self._apply_parameters)
             self.cfg = self._params.current.config
             try:
                 self._world = world_factory(self.cfg)
@@ -138,15 +139,6 @@ class SimBridge(ParameterNode):
             self._pub_description.publish(String(data=f.read()))
 
     # -- parameters ---------------------------------------------------------------------------
-    def _build(self, values):
-        """The BridgeConfig of checked values (bridge_params.build); once the loop runs, also refused where the
-        loop and its World would refuse it (BridgeLoop.check), so a run-time set is refused before it is
-        committed, with the reason naming the parameter."""
-        cfg = bridge_params.build(values)
-        if self._loop is not None:
-            self._loop.check(cfg)
-        return cfg
-
     def _apply_parameters(self, old, new, changed):
         """After the engine committed a run-time change: the new BridgeConfig in force (`old`, `new`:
         Snapshots before and after)."""

@@ -110,10 +110,9 @@ def rows(values):
                'Surface location x_e along its normal task axis, m.'),
         Row('disturbance.joint_torque', 'double_array', (0.0,) * n,
             'Constant disturbance torque added at each joint, N m or N, in joints order.',
-            [size('joints', 'joint', empty_ok=True)], aliases=('joint_torque',)),
+            [size('joints', 'joint', empty_ok=True)]),
         Row('disturbance.cartesian_force', 'double_array', (0.0, 0.0, 0.0),
-            'Constant disturbance force at the tip, N, world frame (x, y, z).', [size(3, empty_ok=True)],
-            aliases=('cartesian_force',)),
+            'Constant disturbance force at the tip, N, world frame (x, y, z).', [size(3, empty_ok=True)]),
         _fixed('payload.mass', 'double', 0.0, 'Mass carried by the tip of the simulated robot, kg (a solid sphere); '
                '0 = none. The controller may be told of it (its payload.mass) or not.', [gt_eq(0)]),
         _fixed('payload.com', 'double_array', (0.0, 0.0, 0.0), "The payload's centre of mass in the tip link's "
