@@ -722,7 +722,8 @@ class ControllerLike:
     it sees) and the core's computed torque holding where it (re)started."""
 
     def __init__(self, state_timeout=0.5):
-        from robot_control.core.controller import ControllerConfig, ControllerCore
+        from robot_control.core.config import ControllerConfig
+        from robot_control.core.controller import ControllerCore
         from robot_control.core.timeline import Timeline
         from robot_control.core.watchdog import StateWatchdog
         from robot_control.gains import design
@@ -779,3 +780,22 @@ def test_realtime_reset_holds_the_initial_positions_after_pause_and_resume(bridg
         errors.append(np.abs(world.state()[0] - Q0).max())
     assert max(errors) < 1e-3, errors
     assert loop.outdated_commands == 20                # each answer in flight at the reset, ignored
+
+
+def test_realtime_after_a_reset_only_stamps_of_the_old_run_are_ignored(bridge):
+    """Ahead of the current time, a stamp up to where the run before the reset got answers a state of that run
+    (ignored, counted as outdated); one beyond it is another time base (applied, as before any reset)."""
+    loop, node = bridge(mode='realtime')
+    loop.on_joint_command(0, JOINTS, HOLD)
+    for _ in range(30):
+        node.now += 10 * MS
+        loop.on_timer()
+    loop.reset()
+    node.now += 10 * MS
+    loop.on_timer()
+    loop.on_joint_command(300 * MS, JOINTS, HOLD)              # the old run's last state: ignored
+    assert loop.outdated_commands == 1 and loop.world.braked
+    assert node.logs[-1] == ('info', 'ignored a command answering the state of t = 0.300 s at t = 0.010 s (a state '
+                                     'of the run before the reset); 1 so far; the brakes stay on until a fresh command')
+    loop.on_joint_command(300 * MS + 1, JOINTS, HOLD)          # beyond it: not of the old run
+    assert loop.outdated_commands == 1 and not loop.world.braked
