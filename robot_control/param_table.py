@@ -3,8 +3,8 @@
 In the spirit of generate_parameter_library's YAML schema, each Row is a parameter: name, type,
 default, description with units, validation rules, read-only or settable at run time. The same
 table declares the parameters on a node (robot_control.ros.param_engine), checks every start-up
-value and run-time change, and renders the README's parameter tables (markdown()) and the nodes'
---help listings (plain_text()).
+value and run-time change, and renders the parameter tables of docs/parameters.md (markdown()) and
+the nodes' --help listings (plain_text()).
 
 Rules (a row's `rules`, rendered in this order into the descriptor's additional_constraints):
     gt(x), gt_eq(x), lt(x), lt_eq(x)   bounds; x a number or another parameter's name (its value);
@@ -234,7 +234,7 @@ class Row:
 
     @property
     def constraints(self):
-        """The rules as text (the descriptor's additional_constraints, the README's bounds)."""
+        """The rules as text (the descriptor's additional_constraints, the bounds column of docs/parameters.md)."""
         texts = [r.text for r in self.rules if r.text]
         if self.inf:
             texts.append('.inf allowed')

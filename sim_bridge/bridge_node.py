@@ -111,6 +111,8 @@ class SimBridge(ParameterNode):
             f'{cfg.scenario or cfg.urdf}: {cfg.n} joints {list(self.joint_names)}, {cfg.mode}, physics step '
             f'{cfg.physics_step} s, control period {cfg.control_period} s'
             + ('' if cfg.lockstep else f', real-time factor {cfg.real_time_factor}'))
+        for line in self._world.report:            # the URDF's warnings, physics unlike the URDF's
+            self.get_logger().warn(line)
 
     def _make_messages(self, cfg):
         """Preallocated messages: joint_states and ft_sensor/wrench as serialized bytes (robot_control.ros.cdr,

@@ -4,8 +4,8 @@
 
 The node's own flags are read from the arguments outside --ros-args (rclpy.utilities.remove_ros_args);
 the ROS arguments go to rclpy.init untouched. --help lists the node's parameters, generated from its
-table (robot_control.param_table: the rows the README's tables come from), with the defaults they
-have when no parameter is set.
+table (robot_control.param_table: the rows the tables of docs/parameters.md come from), with the
+defaults they have when no parameter is set.
 
 Exit statuses, the same for every node:
     0  stopped by SIGINT or SIGTERM (robot_control.ros.spin stops cleanly on both); --help

@@ -36,7 +36,7 @@ import numpy as np
 
 from robot_control import scenarios
 from robot_control.tools.demo_metrics import task_units
-from robot_control.tools.plot import EFFORT_UNIT
+from robot_control.units import EFFORT_UNIT
 
 __all__ = ['tracking_data', 'BagError']
 

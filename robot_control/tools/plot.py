@@ -45,9 +45,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ['tracking_figure', 'check_tracking_data', 'EFFORT_UNIT', 'MAX_COLUMNS']
+from robot_control.units import EFFORT_UNIT
 
-EFFORT_UNIT = {'rad': 'N m', 'm': 'N'}
+__all__ = ['tracking_figure', 'check_tracking_data', 'MAX_COLUMNS']
+
 POSITION_UNITS = ('rad', 'm')
 COL_WIDTH_IN = 3.6
 ROW_HEIGHT_IN = 2.3
