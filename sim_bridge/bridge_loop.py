@@ -21,7 +21,10 @@ Pacing (`cfg.mode`):
   simulation time (or none yet) engages the World's brakes, a fresh command releases them. A
   JointState command stamped (the state it answers) more than command_timeout before the current
   simulation time arrived too late (held up by a network link that failed and came back): it is
-  ignored and counted (outdated_commands), never applied, and does not count as fresh.
+  ignored and counted (outdated_commands), never applied, and does not count as fresh. So is a command
+  answering a state of the run before a reset (stamped after the current simulation time, at most the
+  time the reset ended): in flight when the World was rebuilt, its torque was computed for another
+  state, and applying it would release the brakes and push the rebuilt robot away from its start.
 
 Paused (by `pause`, or by itself after the first tick at or past cfg.pause_at: a breakpoint in
 simulation time, so a run-time change made while paused acts from an exact tick), physics stands
@@ -448,6 +451,7 @@ class RealtimeLoop(BridgeLoop):
         self._pacer = RealtimePacer(cfg.control_period_ns, cfg.real_time_factor)
         self._rate = RateMeter()
         self._achieved_rtf = None
+        self._before_reset_ns = 0         # the latest simulation time of the runs before a reset
 
     def configure(self, cfg):
         old = self.cfg
@@ -462,7 +466,10 @@ class RealtimeLoop(BridgeLoop):
         t = self.world.t_ns
         ok = self._guard.check(JOINT_STATE, t, stamp_ns)
         if self._watchdog.outdated(t, stamp_ns):
-            self._ignore_outdated(stamp_ns, t)
+            self._ignore_outdated(stamp_ns, t, f'older than command_timeout = {self.cfg.command_timeout} s')
+            return
+        if t < stamp_ns <= self._before_reset_ns:
+            self._ignore_outdated(stamp_ns, t, 'a state of the run before the reset')
             return
         reason = self.mapper.map_named(names, efforts)
         if reason is None and ok:
@@ -474,15 +481,15 @@ class RealtimeLoop(BridgeLoop):
         ok = self._guard.check(ARRAY, self.world.t_ns)
         self._command(self.mapper.map_array(values), ok)
 
-    def _ignore_outdated(self, stamp_ns, t_ns):
-        """Count and log an outdated command: a warning once the loop has run on a valid command, information
-        before (the first state can reach a controller that has just joined late, held up while DDS matches
-        the two nodes; the brakes are on until a fresh command anyway)."""
+    def _ignore_outdated(self, stamp_ns, t_ns, why):
+        """Count and log an outdated command (`why` it is): a warning once the loop has run on a valid command,
+        information before (the first state can reach a controller that has just joined late, held up while DDS
+        matches the two nodes; the brakes are on until a fresh command anyway)."""
         self.outdated_commands += 1
         if self._reject_throttle.ready(self._clock()):
             self._log('warning' if self._have_cmd else 'info',
                       f'ignored a command answering the state of t = {stamp_ns / NS:.3f} s at t = {t_ns / NS:.3f} s '
-                      f'(older than command_timeout = {self.cfg.command_timeout} s); {self.outdated_commands} so far'
+                      f'({why}); {self.outdated_commands} so far'
                       + ('' if self._have_cmd else '; the brakes stay on until a fresh command'))
 
     def _command(self, reason, ok):
@@ -535,6 +542,10 @@ class RealtimeLoop(BridgeLoop):
         self._pacer.anchor(now, self.ticks)
         self._restart_timer()
         self._rate.reset(now, self.world.t_ns)
+
+    def reset(self):
+        self._before_reset_ns = max(self._before_reset_ns, self.world.t_ns)
+        return super().reset()
 
     def _restart(self):
         t = self.world.t_ns

@@ -819,3 +819,31 @@ def test_the_gains_in_force_are_read_only_parameters_that_follow_every_change(ro
         assert list(ctrl.get_parameter('gains.kp').value) == [36.0, 36.0]
         law = {s.name.split(': ')[1]: s for s in ctrl.diagnostics()}['control law']
         assert {v.key: v.value for v in law.values}['gains.kv'] == '[24.0, 24.0]'
+
+
+#: bad values of the rows whose rules are the build's (custom), besides the generic ones (ki is read only with
+#: integral action, off here)
+CUSTOM_BAD = {'zeta': [('underdamped', 0.5)], 'omega_n': [('above omega_res / 2', 1000.0)],
+              'kp': [('wrong size', [1.0] * 3)], 'kv': [('wrong size', [1.0] * 3)],
+              'effort_limits': [('wrong size', [1.0] * 3)], 'q_d': [('wrong size', [0.0] * 3)]}
+
+
+def test_every_bad_run_time_set_is_refused_naming_the_parameter_and_the_loop_runs_on(ros_context):
+    """Every parameter that may change at run time, set through the parameter service (as `ros2 param set`) to
+    what its type and rules refuse: each set is answered, refused with the reason naming the parameter, and
+    changes nothing; the controller still answers each state with a command."""
+    from robot_control.ros import controller_params
+    from support import bad_params
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        robot.step(ex, POLAR_JOINTS, [0.0, 0.5], [0.0, 0.0], T0_NS)
+        set_ = bad_params.setter(robot.node, 'controller', lambda predicate: spin_until(ex, predicate))
+        rows, values = bad_params.rows_and_values(controller_params.TABLE, ctrl)
+        config, tried = ctrl.core.config, 0
+        for row in rows:
+            for what, value in bad_params.bad_values(row, values, CUSTOM_BAD.get(row.name, ())):
+                bad_params.check_refused(set_(row.name, value), row.name, what)
+                tried += 1
+        assert ctrl.core.config is config and bad_params.rows_and_values(controller_params.TABLE, ctrl)[1] == values
+        for k in range(1, 4):
+            robot.step(ex, POLAR_JOINTS, [0.0, 0.5], [0.0, 0.0], T0_NS + k * DT_NS)
+        assert tried >= 3 * len(rows)
