@@ -8,12 +8,13 @@ PACKAGE = 'robot_control'
 setup(
     name=PACKAGE,
     version='0.1.0',
-    packages=find_packages(exclude=['test']),
+    packages=find_packages(include=['robot_control', 'robot_control.*', 'sim_bridge', 'sim_bridge.*']),
     package_data={PACKAGE: ['urdf/*.urdf', 'ros/fastdds_profile.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml', 'LICENSE', 'CHANGELOG.rst']),
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE + '/config/templates', glob('config/templates/*.yaml')),
         ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py')),
         ('share/' + PACKAGE + '/urdf', glob(PACKAGE + '/urdf/*.urdf')),
         ('share/' + PACKAGE + '/dds', [PACKAGE + '/ros/fastdds_profile.xml']),

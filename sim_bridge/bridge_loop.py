@@ -21,7 +21,10 @@ Pacing (`cfg.mode`):
   simulation time (or none yet) engages the World's brakes, a fresh command releases them. A
   JointState command stamped (the state it answers) more than command_timeout before the current
   simulation time arrived too late (held up by a network link that failed and came back): it is
-  ignored and counted (outdated_commands), never applied, and does not count as fresh.
+  ignored and counted (outdated_commands), never applied, and does not count as fresh. So is a command
+  answering a state of the run before a reset (stamped after the current simulation time, at most the
+  time the reset ended): in flight when the World was rebuilt, its torque was computed for another
+  state, and applying it would release the brakes and push the rebuilt robot away from its start.
 
 Paused (by `pause`, or by itself after the first tick at or past cfg.pause_at: a breakpoint in
 simulation time, so a run-time change made while paused acts from an exact tick), physics stands
@@ -29,6 +32,13 @@ still and the unchanged state is re-published every 0.1 s of wall time, so a con
 robot (its watchdog does not trip) and may be configured or given a trajectory before the resume;
 in lockstep the latest answer received while paused is applied on resume. Reset rebuilds the World
 at t = 0 and forgets the command.
+
+The robot's driver (sim_bridge.sensors.Driver, parameters noise.*, encoder_resolution, wrench_bias,
+delay.*, seed): the loop publishes `measured`, the World's readings as the driver delivers them (the
+World itself when nothing is modelled); with a measurement delay of d ticks a state is stamped when it
+was measured, d ticks before the World's time (lockstep expects the command stamped like the published
+state; start and reset run d warm-up ticks with the brakes engaged first), and valid commands reach the
+World actuation_ticks ticks after they arrive.
 
 Bad commands (unknown, missing or duplicate joint names, wrong lengths, NaN or inf) never reach
 the World: a throttled warning, a count per reason, and the last valid command (or the brakes)
@@ -57,6 +67,7 @@ from robot_control.core.throttle import Throttle
 from robot_control.validation import ArgumentError
 from sim_bridge.pacing import (CommandMapper, CommandWatchdog, DeadlineMeter, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard)
+from sim_bridge.sensors import Driver
 
 NS = units.NS_PER_S
 #: the command topics, in the order of the publisher counts (`count_publishers`)
@@ -89,8 +100,9 @@ class BridgeLoop(abc.ABC):
     sim_bridge.bridge_params.BridgeConfig): the parts both modes share. Make one with `make_loop`.
 
     Callbacks into the node:
-    - publish_state(in_loop, with_clock) -> wall_ns: publish the World's current state
-      (joint_states, and ft_sensor/wrench), then /clock when `with_clock`; return the wall time
+    - publish_state(in_loop, with_clock) -> wall_ns: publish the current state of `measured` (its t_ns,
+      state_values() as joint_states, contact_wrench() as ft_sensor/wrench), then /clock (the World's
+      time) when `with_clock`; return the wall time
       at which joint_states went out. `in_loop`: a tick of the running loop (False for a first,
       re-published or resumed state).
     - count_publishers() -> (n, n): publishers on COMMAND_TOPICS.
@@ -126,6 +138,10 @@ class BridgeLoop(abc.ABC):
         self._watchdog = CommandWatchdog(cfg.command_timeout_ns)    # fed by valid realtime commands
         self._guard = SourceGuard(cfg.command_timeout_ns, COMMAND_TOPICS)
         self._deadline = DeadlineMeter()
+        self._driver = Driver(world, cfg.sensors, cfg.control_period_ns)
+        self.measured = self._driver.measured
+        self._hold = self._driver.hold
+        self._advance = self._driver.step
         self._reject_throttle = Throttle(WARN_PERIOD_NS)
         self._brake_throttle = Throttle(WARN_PERIOD_NS)
         self._have_cmd = False
@@ -208,9 +224,10 @@ class BridgeLoop(abc.ABC):
             if on and log and self._brake_throttle.ready(self._clock()):
                 self._log('warning', f'brakes stay engaged at t = {t:.3f} s: {reason}')
             return
-        self.world.brake(on)
-        if not on:
-            self.world.hold_torque(self.mapper.values)
+        if on:
+            self._driver.engage()
+        else:
+            self._driver.release(self.mapper.values)
         self.brake_events += 1
         if log and self._brake_throttle.ready(self._clock()):
             if on:
@@ -223,7 +240,7 @@ class BridgeLoop(abc.ABC):
     def _step(self):
         """One control tick: hold the torque in force for control_period, publish the new state; pause there
         when it reached pause_at."""
-        self.world.step(self._substeps)
+        self._advance(self._substeps)
         self.ticks += 1
         self._publish(in_loop=True)
         if self._pause_at_ns is not None and self.world.t_ns >= self._pause_at_ns:
@@ -231,12 +248,12 @@ class BridgeLoop(abc.ABC):
             self.pause(True, f' (pause_at = {self.cfg.pause_at:g} s)')
 
     def _publish(self, in_loop=False):
-        """Publish the World's state; /clock on the tick that crosses a clock_period (every tick if 0)."""
+        """Publish the measured state; /clock on the tick that crosses a clock_period (every tick if 0)."""
         t = self.world.t_ns
         clock_ns = self._clock_period_ns
         wall = self._publish_state(in_loop, not clock_ns or t % clock_ns < self._control_ns)
         self._wall_last_pub = wall
-        self._deadline.state(t, wall)
+        self._deadline.state(self.measured.t_ns, wall)
 
     def _heartbeat(self):
         """Paused: re-publish the unchanged state every PAUSED_STATE_PERIOD_NS of wall time."""
@@ -244,7 +261,14 @@ class BridgeLoop(abc.ABC):
             self._publish()
 
     def _restart(self):
-        """Publish the World's state as the first of a run (start-up, reset)."""
+        """Publish the measured state as the first of a run (start-up, reset), after the measurement delay's
+        warm-up (sim_bridge.sensors: that many ticks with the brakes engaged, not counted in `ticks`)."""
+        self._driver.restart()
+        if self._driver.warm_up_ticks:
+            if not self._brake_reason:
+                self._set_brakes('no valid command yet', log=False)
+            for _ in range(self._driver.warm_up_ticks):
+                self._advance(self._substeps)
         self._publish()
 
     # -- pause, reset ---------------------------------------------------------------------------
@@ -382,11 +406,11 @@ class LockstepLoop(BridgeLoop):
             if self._brake_reason:
                 self._set_brakes('')
             else:
-                self.world.hold_torque(self.mapper.values)
+                self._hold(self.mapper.values)
         elif not self._have_cmd:
             self._set_brakes('no valid command yet')
         self._step()
-        self.gate.expect(self.world.t_ns)
+        self.gate.expect(self.measured.t_ns)
 
     def on_timer(self):
         """Re-publish the state when no answer came for lockstep_timeout of wall time (paused: every 0.1 s)."""
@@ -410,8 +434,8 @@ class LockstepLoop(BridgeLoop):
         return super().reset()
 
     def _restart(self):
-        self.gate.expect(self.world.t_ns)
         super()._restart()
+        self.gate.expect(self.measured.t_ns)
 
     def _pacing(self):
         return 'OK', 'lockstep', {'republished_states': self.republished, 'late_commands': self.gate.late,
@@ -427,6 +451,7 @@ class RealtimeLoop(BridgeLoop):
         self._pacer = RealtimePacer(cfg.control_period_ns, cfg.real_time_factor)
         self._rate = RateMeter()
         self._achieved_rtf = None
+        self._before_reset_ns = 0         # the latest simulation time of the runs before a reset
 
     def configure(self, cfg):
         old = self.cfg
@@ -441,7 +466,10 @@ class RealtimeLoop(BridgeLoop):
         t = self.world.t_ns
         ok = self._guard.check(JOINT_STATE, t, stamp_ns)
         if self._watchdog.outdated(t, stamp_ns):
-            self._ignore_outdated(stamp_ns, t)
+            self._ignore_outdated(stamp_ns, t, f'older than command_timeout = {self.cfg.command_timeout} s')
+            return
+        if t < stamp_ns <= self._before_reset_ns:
+            self._ignore_outdated(stamp_ns, t, 'a state of the run before the reset')
             return
         reason = self.mapper.map_named(names, efforts)
         if reason is None and ok:
@@ -453,15 +481,15 @@ class RealtimeLoop(BridgeLoop):
         ok = self._guard.check(ARRAY, self.world.t_ns)
         self._command(self.mapper.map_array(values), ok)
 
-    def _ignore_outdated(self, stamp_ns, t_ns):
-        """Count and log an outdated command: a warning once the loop has run on a valid command, information
-        before (the first state can reach a controller that has just joined late, held up while DDS matches
-        the two nodes; the brakes are on until a fresh command anyway)."""
+    def _ignore_outdated(self, stamp_ns, t_ns, why):
+        """Count and log an outdated command (`why` it is): a warning once the loop has run on a valid command,
+        information before (the first state can reach a controller that has just joined late, held up while DDS
+        matches the two nodes; the brakes are on until a fresh command anyway)."""
         self.outdated_commands += 1
         if self._reject_throttle.ready(self._clock()):
             self._log('warning' if self._have_cmd else 'info',
                       f'ignored a command answering the state of t = {stamp_ns / NS:.3f} s at t = {t_ns / NS:.3f} s '
-                      f'(older than command_timeout = {self.cfg.command_timeout} s); {self.outdated_commands} so far'
+                      f'({why}); {self.outdated_commands} so far'
                       + ('' if self._have_cmd else '; the brakes stay on until a fresh command'))
 
     def _command(self, reason, ok):
@@ -478,7 +506,7 @@ class RealtimeLoop(BridgeLoop):
         if self._brake_reason:
             self._update_brakes(t)
         if not self._brake_reason:
-            self.world.hold_torque(self.mapper.values)
+            self._hold(self.mapper.values)
 
     def _update_brakes(self, t_ns, log=True):
         """Brakes on while mixing is seen or the command is stale, else off."""
@@ -503,7 +531,7 @@ class RealtimeLoop(BridgeLoop):
             t = w.t_ns
             if self._brake_reason or self._watchdog.stale(t) or self._guard.in_conflict(t):
                 self._update_brakes(t)
-            self._deadline.step(t)
+            self._deadline.step(self.measured.t_ns)
             self._step()
             if self._paused:                  # reached pause_at
                 break
@@ -515,14 +543,18 @@ class RealtimeLoop(BridgeLoop):
         self._restart_timer()
         self._rate.reset(now, self.world.t_ns)
 
+    def reset(self):
+        self._before_reset_ns = max(self._before_reset_ns, self.world.t_ns)
+        return super().reset()
+
     def _restart(self):
         t = self.world.t_ns
         self._update_brakes(t, log=False)
         now = self._clock()
         self._pacer.anchor(now, 0)
         self._restart_timer()
-        self._rate.reset(now, t)
         super()._restart()
+        self._rate.reset(now, self.world.t_ns)      # after the warm-up: it is not paced
 
     def _pacing(self):
         cfg, d, overruns = self.cfg, self._deadline, self._pacer.overruns

@@ -3,9 +3,12 @@ brakes, pause and reset, refused sources, diagnostics content) are sim_bridge.br
 this node translates messages to and from it.
 
 Publishes `/clock` (rosgraph_msgs/Clock, every clock_period of simulation time), `joint_states`
-(sensor_msgs/JointState: position, velocity, effort = the torque actually applied; header.stamp =
-simulation time), `ft_sensor/wrench` (geometry_msgs/WrenchStamped: force and torque the robot
-exerts on the surface, world axes, frame `wrench_frame_id`; only while it has a subscriber) and
+(sensor_msgs/JointState: position, velocity, effort = the joint torque a link-side torque sensor
+measures, i.e. the actuator torque applied less the drive's friction and rotor inertia;
+header.stamp = the simulation time of the measurement), `ft_sensor/wrench`
+(geometry_msgs/WrenchStamped: force and torque the robot exerts on the surface, world axes, frame
+`wrench_frame_id`; only while it has a subscriber), both as the robot's driver delivers them (noise,
+encoder counts, bias, measurement delay: sim_bridge.sensors; by default exactly as simulated), and
 `/diagnostics` (statuses `<node name>: pacing`, `: commands`, `: brakes`, hardware_id the scenario
 or URDF, stamped with simulation time; every diagnostics_period and at once when the brakes
 change) and `robot_description` (std_msgs/String, transient local: the URDF of the simulated robot,
@@ -25,15 +28,14 @@ Speed: robot_joint_commands is taken as serialized bytes and read by robot_contr
 decodes what that declines); joint_states and ft_sensor/wrench are preallocated serialized messages
 written from the World's state as floats. joint_states goes out before /clock and the bookkeeping.
 
-`main` spins rclpy's C++ EventsExecutor by default (`--executor single` for the Python one).
+`main` spins rclpy's C++ EventsExecutor by default (`--executor single` for the Python one); `--help`
+lists the parameters with their units and defaults; exit statuses as robot_control.ros.entry.
 """
 import dataclasses
 import sys
 import time
 
 import numpy as np
-import rclpy
-import rclpy.utilities
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
@@ -45,9 +47,8 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import SetBool, Trigger
 
 from robot_control import scenarios, units
-from robot_control.ros import cdr, conversions, spin
+from robot_control.ros import cdr, conversions, entry
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
-from robot_control.param_table import ParameterError
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DESCRIPTION_QOS, DIAGNOSTICS_QOS
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
@@ -113,6 +114,8 @@ class SimBridge(ParameterNode):
             f'{cfg.scenario or cfg.urdf}: {cfg.n} joints {list(self.joint_names)}, {cfg.mode}, physics step '
             f'{cfg.physics_step} s, control period {cfg.control_period} s'
             + ('' if cfg.lockstep else f', real-time factor {cfg.real_time_factor}'))
+        for line in self._world.report:            # the URDF's warnings, physics unlike the URDF's
+            self.get_logger().warn(line)
 
     def _make_messages(self, cfg):
         """Preallocated messages: joint_states and ft_sensor/wrench as serialized bytes (robot_control.ros.cdr,
@@ -168,26 +171,26 @@ class SimBridge(ParameterNode):
 
     # -- out: what the loop asks for -------------------------------------------------------------
     def _publish_state(self, in_loop, with_clock):
-        """Publish the World's state: the tick's ft_sensor/wrench (the controller pairs them by stamp),
-        joint_states (in lockstep the controller waits for it), then /clock when `with_clock`; returns
-        the wall time (ns) at which joint_states went out.
+        """Publish the measured state (the loop's `measured`: the World's readings as its driver delivers them,
+        sim_bridge.sensors, stamped when measured): the tick's ft_sensor/wrench (the controller pairs them by
+        stamp), joint_states (in lockstep the controller waits for it), then /clock (the World's time) when
+        `with_clock`; returns the wall time (ns) at which joint_states went out.
 
         ft_sensor/wrench is VOLATILE: without a subscriber nobody misses it. `in_loop` (a tick of the
         running loop): whether it has one was counted after the previous state, off the loop's critical
         path (a count is a query of the ROS graph), so a subscriber that appears mid-run gets the wrench from
         the next tick on; a first or re-published state counts now."""
-        w = self._world
-        q, qd, tau = w.state_values()
-        t = w.t_ns
+        m = self._loop.measured
+        q, qd, tau = m.state_values()
+        t = m.t_ns
         if not in_loop:
             self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0
         if self._wrench_wanted:
-            f, m = w.contact_wrench()
-            self._pub_wrench.publish(self._wrench_encoder.encode(t, f, m))
+            self._pub_wrench.publish(self._wrench_encoder.encode(t, *m.contact_wrench()))
         self._pub_js.publish(self._js_encoder.encode(t, q, qd, tau))
         wall = time.monotonic_ns()
         if with_clock:
-            self._set_stamp(t)
+            self._set_stamp(self._world.t_ns)
             self._pub_clock.publish(self._clock_msg)
         self._wrench_wanted = self._pub_wrench.get_subscription_count() > 0    # for the next tick
         return wall
@@ -268,24 +271,14 @@ class SimBridge(ParameterNode):
         return super().destroy_node()
 
 
-def _parse_args(argv):
-    import argparse
-    parser = argparse.ArgumentParser(
-        prog='sim_bridge_node', description='PyBullet simulation of a robot_control scenario as a ROS 2 robot.',
-        epilog='ROS arguments follow --ros-args, e.g. --ros-args --params-file config/polar_two_link.yaml '
-               '-p mode:=lockstep')
-    parser.add_argument('--executor', choices=('events', 'single'), default='events',
-                        help='rclpy executor: events (C++ EventsExecutor, fastest; default) or single '
-                             '(SingleThreadedExecutor)')
-    return parser.parse_args(argv)
+ENTRY = entry.Entry('sim_bridge_node', 'PyBullet simulation of a robot_control scenario as a ROS 2 robot.', SimBridge,
+                    bridge_params.TABLE, example='--params-file config/polar_two_link.yaml -p mode:=lockstep')
 
 
 def main(args=None):
-    """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`; returns the exit code."""
-    argv = sys.argv if args is None else args
-    opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    return spin.run_node(argv, SimBridge, opts.executor, startup_errors=(ParameterError,),
-                         startup_message='bad parameter:', startup_code=2)
+    """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`: spin until Ctrl-C / SIGTERM
+    (exit 0); 2 on a bad parameter (robot_control.ros.entry)."""
+    return ENTRY.main(args)
 
 
 if __name__ == '__main__':

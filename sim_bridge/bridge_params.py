@@ -7,6 +7,7 @@ Stages: `scenario` and `urdf` choose the robot, `joints` defaults to the scenari
 other default is the scenario's own value (joints, initial positions, surface, physical
 parameters), so `ros2 param get` shows what the simulator really uses. Only real_time_factor,
 command_timeout, lockstep_timeout, disturbance.*, pause_at and diagnostics_period may change at run time.
+The sensor model's rows (noise.*, encoder_resolution, wrench_bias, delay.*, seed) are sim_bridge.sensors'.
 
 `sim_params.*` are the simulated robot's true physical parameters (one per parameter of the
 scenario's closed-form model, e.g. m and gravity for polar_two_link): set them differently from
@@ -24,14 +25,14 @@ import numpy as np
 
 from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
+from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.validation import ArgumentError
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
+from sim_bridge import sensors
 
 MODES = ('realtime', 'lockstep')
 SIM_PARAMS = 'sim_params.'
-#: physical parameters that may be zero (no friction, no spring, no gravity); the others must be positive
-MAY_BE_ZERO = ('gravity', 'b', 'k')
 
 
 def _scenario(name):
@@ -120,7 +121,7 @@ def rows(values):
     ]
     for key, value in sorted((sc.params if sc else {}).items()):
         out.append(_fixed(f'{SIM_PARAMS}{key}', 'double', float(value),
-                          f'Simulated robot physical parameter {key!r} (SI); differ from the '
+                          f'Simulated robot physical parameter {key!r}, {PARAMETER_UNITS[key]}; differ from the '
                           "controller's model for a model-error payload.",
                           [gt_eq(0) if key in MAY_BE_ZERO else gt(0)]))
     if sc is None or sc.model == 'urdf':
@@ -140,7 +141,7 @@ def rows(values):
     return out
 
 
-TABLE = Table('sim_bridge', robot_rows, joints_rows, rows)
+TABLE = Table('sim_bridge', robot_rows, joints_rows, rows, sensors.rows)
 
 
 @dataclass(frozen=True)
@@ -173,6 +174,7 @@ class BridgeConfig:
     diagnostics_period: float
     pause_at: float
     gui: bool
+    sensors: sensors.SensorModel
 
     @property
     def n(self):
@@ -215,6 +217,10 @@ def build(values):
             raise ParameterError('surface.enable', f'scenario {scenario!r} has no surface')
         if not v['surface.k_e'] > 0.0:
             raise ParameterError('surface.k_e', f'expected a positive stiffness (N/m), got {v["surface.k_e"]}')
+    for name in ('payload.mass', 'disturbance.cartesian_force'):
+        if sc is None and np.any(v[name]):
+            raise ParameterError(name, "needs a tip link to act at: a scenario's robot has one (parameter "
+                                       "scenario); a custom URDF robot (scenario '') has none")
     sim_params = {k[len(SIM_PARAMS):]: value for k, value in v.items() if k.startswith(SIM_PARAMS)}
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=tuple(joints), initial_positions=np.array(v['initial_positions']),
@@ -227,7 +233,7 @@ def build(values):
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
         payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
         wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], pause_at=v['pause_at'],
-        gui=v['gui'])
+        gui=v['gui'], sensors=sensors.model(v))
 
 
 def validate(values):

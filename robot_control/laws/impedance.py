@@ -118,8 +118,8 @@ PARAM_ROWS = (
     Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
         'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
         [size(6, 'pose axis'), gt_eq(0)]),
-    Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio of the designed damping '
-        'D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
+    Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio, dimensionless, of the designed '
+        'damping D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
         [gt_eq(0)]),
     Row('cartesian_damping', 'double_array', (), 'impedance: explicit damping along x, y, z (N s/m) and '
         'rx, ry, rz (N m s/rad); empty = designed from cartesian_damping_ratio',

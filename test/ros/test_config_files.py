@@ -168,3 +168,61 @@ def test_file_applies_to_the_bridge_in_a_namespace(ros_context):
         assert list(node.get_parameter('initial_positions').value) == want['initial_positions']
     finally:
         node.destroy_node()
+
+
+# -- config/templates/your_robot.yaml: your own arm ---------------------------------------------------------------
+TEMPLATE = os.path.join(CONFIG, 'templates', 'your_robot.yaml')
+ROS_OWN = {'use_sim_time'}       # rclpy's own parameter, in no table
+
+
+def _template_sections():
+    with open(TEMPLATE, encoding='utf-8') as f:
+        doc = yaml.safe_load(f)
+    assert set(doc) == NODE_SECTIONS and all(set(s) == {'ros__parameters'} for s in doc.values())
+    return {name: _flatten(doc[f'/**/{name}']['ros__parameters']) for name in ('controller', 'sim_bridge')}
+
+
+def _through_table(table, params):
+    """The checked values of `params` through `table` (ParameterError naming a bad one), after checking that
+    every key is one of the table's rows, as the node refuses an unknown one."""
+    rows, _ = table.resolve(lambda row: params.get(row.name, row.default), check=False)
+    unknown = set(params) - set(rows.names()) - ROS_OWN
+    assert not unknown, f'{sorted(unknown)} in {TEMPLATE} are no parameters of {table.node}'
+    return table.validate(params)
+
+
+def test_the_template_is_an_arm_the_package_does_not_ship_and_loads_through_both_tables():
+    """config/templates/your_robot.yaml (the xArm7 of example-robot-data): valid for the controller's and the
+    bridge's parameter tables and their builds (no rclpy), the same robot and joints in both sections."""
+    from robot_control import urdf as urdf_files
+    from robot_control.ros import controller_params
+    from robot_control.ros.config_builder import ConfigBuilder
+    from sim_bridge import bridge_params
+    sections = _template_sections()
+    ctrl, bridge = sections['controller'], sections['sim_bridge']
+    assert ctrl['scenario'] == bridge['scenario'] == '' and ctrl['model'] == 'urdf'
+    assert ctrl['urdf'] == bridge['urdf'] and ctrl['joints'] == bridge['joints']
+    shipped = {os.path.basename(p) for p in glob.glob(os.path.join(urdf_files.DIR, '*.urdf'))}
+    assert os.path.basename(ctrl['urdf']) not in shipped
+    assert all(sc.urdf != ctrl['urdf'] for sc in scenarios.SCENARIOS.values())
+    values = _through_table(controller_params.TABLE, ctrl)
+    config = ConfigBuilder()(values)
+    assert list(config.joints) == ctrl['joints'] == [f'joint{i}' for i in range(1, 8)]
+    assert config.model.task_axes == ('x', 'y', 'z') and np.all(config.effort_limit > 0.0)
+    np.testing.assert_array_equal(config.gains.kp, [36.0] * 7)     # omega_n = omega_res / 2 = 6 rad/s
+    cfg = bridge_params.build(_through_table(bridge_params.TABLE, bridge))
+    assert cfg.joints == tuple(ctrl['joints']) and cfg.urdf == urdf_files.resolve(ctrl['urdf'])
+    assert len(cfg.initial_positions) == 7 and not cfg.surface_enable
+
+
+def test_every_line_of_the_template_that_sets_a_value_explains_it():
+    """A comment on each line that sets a parameter (or on the list it continues), units where the value has
+    them: the template is the documentation a new user edits."""
+    with open(TEMPLATE, encoding='utf-8') as f:
+        lines = f.read().splitlines()
+    for i, line in enumerate(lines):
+        body = line.split('#')[0].rstrip()
+        if body.endswith(':') or not body.strip() or ':' not in body:      # a section, a comment, a blank
+            continue
+        assert '#' in line, f'line {i + 1} of {TEMPLATE} sets a value without a comment: {line.strip()}'
+

@@ -2,7 +2,9 @@
 
 What is checked here: the arguments it declares (names, defaults, choices) and what it refers to
 (the node executables, their names and the config sections, the /clock remapping rule, applied by
-rclpy's own remapping). That `ros2 launch` brings the loop up is checked by `make check-ros2`.
+rclpy's own remapping); its parameter_files() (compiled alone from the file's source) and the nodes
+started with the files it gives, as ros2 launch passes them (--params-file, in order). That `ros2
+launch` brings the loop up is checked by `make check-ros2`.
 """
 import ast
 import importlib.metadata
@@ -63,9 +65,10 @@ def _nodes():
 
 def test_it_declares_the_documented_arguments_with_their_defaults():
     args = _arguments()
-    assert set(args) == {'scenario', 'mode', 'namespace', 'gui', 'use_sim_time'}
+    assert set(args) == {'scenario', 'params_file', 'mode', 'namespace', 'gui', 'use_sim_time'}
     assert {k: v['default_value'] for k, v in args.items()} == {
-        'scenario': 'polar_two_link', 'mode': 'realtime', 'namespace': '', 'gui': 'false', 'use_sim_time': 'true'}
+        'scenario': '', 'params_file': '', 'mode': 'realtime', 'namespace': '', 'gui': 'false',
+        'use_sim_time': 'true'}
 
 
 def test_mode_choices_are_the_bridge_modes_and_booleans_are_true_or_false():
@@ -73,11 +76,12 @@ def test_mode_choices_are_the_bridge_modes_and_booleans_are_true_or_false():
     assert tuple(args['mode']['choices']) == MODES
     assert _constant('BOOLEAN') == ['true', 'false']
     assert args['gui']['choices'] == args['use_sim_time']['choices'] == 'BOOLEAN'
-    assert args['scenario']['choices'] == 'SCENARIOS'    # the installed config/*.yaml, read at launch
+    assert args['scenario']['choices'] == 'SCENARIO_CHOICES'    # '' and the installed config/*.yaml
+    assert 'choices' not in args['params_file']
 
 
 def test_default_scenario_and_every_shipped_one_has_a_file_for_both_nodes():
-    assert _arguments()['scenario']['default_value'] in scenarios.SCENARIOS
+    assert _constant('DEFAULT_SCENARIO') in scenarios.SCENARIOS
     names = [name for _, name in _nodes()]
     assert sorted(names) == ['controller', 'sim_bridge']
     for scenario in scenarios.SCENARIOS:
@@ -123,3 +127,82 @@ def test_package_xml_declares_the_launch_dependencies():
                 for n in ast.walk(_tree()) if isinstance(n, (ast.Import, ast.ImportFrom))}
     assert {'launch', 'launch_ros', 'ament_index_python'} <= imported
     assert imported - {'os'} <= exec_depends
+
+
+# -- params_file: your own robot -----------------------------------------------------------------------------
+TEMPLATE = os.path.join(ROOT, 'config', 'templates', 'your_robot.yaml')
+
+
+def _parameter_files():
+    """parameter_files() of the launch file, compiled alone, CONFIG_DIR being the repository's config/."""
+    [fn] = [n for n in _tree().body if isinstance(n, ast.FunctionDef) and n.name == 'parameter_files']
+    namespace = {'os': os, 'CONFIG_DIR': os.path.join(ROOT, 'config'), 'DEFAULT_SCENARIO': _constant('DEFAULT_SCENARIO')}
+    exec(compile(ast.Module(body=[fn], type_ignores=[]), LAUNCH_FILE, 'exec'), namespace)
+    return namespace['parameter_files']
+
+
+def _config(name):
+    return os.path.join(ROOT, 'config', f'{name}.yaml')
+
+
+def test_parameter_files_are_the_scenario_then_the_users(tmp_path, monkeypatch):
+    files = _parameter_files()
+    assert files('', '') == [_config('polar_two_link')]                 # nothing given: the lecture's example
+    assert files('iiwa', '') == [_config('iiwa')]
+    assert files('', TEMPLATE) == [TEMPLATE]                            # your robot alone
+    assert files('iiwa', TEMPLATE) == [_config('iiwa'), TEMPLATE]       # yours after the scenario's: yours win
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / 'my_arm.yaml').write_text('{}')
+    assert files('', 'my_arm.yaml') == [str(tmp_path / 'my_arm.yaml')]  # relative to where ros2 launch runs
+    with pytest.raises(RuntimeError, match=r'^params_file: no file .*/nope\.yaml$'):
+        files('', 'nope.yaml')
+
+
+def test_both_nodes_read_the_same_files_then_the_arguments_and_the_launch_says_which():
+    """parameters=[*files, {arguments}] in both Node actions (the arguments override the files), and a LogInfo
+    naming the files, in the function that makes the nodes from the evaluated arguments."""
+    for call in _calls('Node'):
+        params = _keywords(call)['parameters']
+        assert isinstance(params, ast.List) and isinstance(params.elts[0], ast.Starred)
+        assert params.elts[0].value.id == 'files' and isinstance(params.elts[-1], ast.Dict)
+    [log] = _calls('LogInfo')
+    assert any(isinstance(n, ast.Name) and n.id == 'files' for n in ast.walk(log))
+    assert len(_calls('OpaqueFunction')) == 1
+
+
+def _node_with_files(kind, context, files, namespace='/'):
+    """A node started as ros2 launch starts it: -r __ns:=... --params-file <each file, in order>."""
+    args = ['--ros-args', '-r', f'__ns:={namespace}'] + [a for f in files for a in ('--params-file', f)]
+    return kind(context=context, cli_args=args)
+
+
+def test_the_template_as_params_file_brings_up_the_xarm_in_both_nodes(ros_context):
+    from robot_control.ros.controller_node import ControllerNode
+    from sim_bridge.bridge_node import SimBridge
+    files = _parameter_files()('', TEMPLATE)
+    joints = [f'joint{i}' for i in range(1, 8)]
+    bridge = _node_with_files(SimBridge, ros_context, files, '/arm')
+    try:
+        assert list(bridge.joint_names) == joints and bridge.world.n == 7
+        assert bridge.cfg.urdf.endswith('xarm_description/urdf/xarm7.urdf')
+    finally:
+        bridge.destroy_node()
+    ctrl = _node_with_files(ControllerNode, ros_context, files, '/arm')
+    try:
+        assert list(ctrl.core.config.joints) == joints and ctrl.core.config.law == 'computed_torque'
+    finally:
+        ctrl.destroy_node()
+
+
+def test_a_params_file_after_a_scenario_wins(ros_context, tmp_path):
+    """scenario:=iiwa params_file:=tweak.yaml: iiwa's values, with the tweak's where it has one."""
+    from robot_control.ros.controller_node import ControllerNode
+    tweak = tmp_path / 'tweak.yaml'
+    tweak.write_text(yaml.safe_dump({'/**/controller': {'ros__parameters': {'omega_res': 20.0}}}))
+    ctrl = _node_with_files(ControllerNode, ros_context, _parameter_files()('iiwa', str(tweak)))
+    try:
+        assert ctrl.get_parameter('scenario').value == 'iiwa'
+        assert ctrl.get_parameter('omega_res').value == 20.0        # iiwa.yaml says 12.0
+        assert list(ctrl.core.config.gains.kp) == [100.0] * 7        # (20 / 2)^2
+    finally:
+        ctrl.destroy_node()

@@ -3,6 +3,7 @@ real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_par
 import array
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -217,7 +218,7 @@ def test_defaults_validate_for_every_scenario():
 def test_every_parameter_has_a_description_and_only_the_pacing_disturbances_and_pause_at_change_at_run_time():
     rows, _ = bridge_params.TABLE.resolve(lambda row: 'iiwa' if row.name == 'scenario' else row.default)
     for row in rows:
-        assert row.description and row.type in ('bool', 'double', 'string', 'double_array', 'string_array')
+        assert row.description and row.type in ('bool', 'integer', 'double', 'string', 'double_array', 'string_array')
     assert {row.name for row in rows if not row.read_only} == {
         'real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
         'disturbance.cartesian_force', 'diagnostics_period', 'pause_at'}
@@ -265,6 +266,17 @@ def test_custom_urdf_needs_urdf_and_joints():
         '', urdf='kuka_iiwa/model.urdf', joints=['lbr_iiwa_joint_1', 'lbr_iiwa_joint_2']))
     assert cfg.n == 2 and cfg.initial_positions.tolist() == [0.0, 0.0] and not cfg.surface_enable
     assert cfg.urdf.endswith('kuka_iiwa/model.urdf')
+
+
+@pytest.mark.parametrize('name, value', [('payload.mass', 1.0), ('disturbance.cartesian_force', [1.0, 0.0, 0.0])])
+def test_what_acts_at_the_tip_is_refused_on_a_custom_robot_naming_the_parameter_that_gives_a_tip(name, value):
+    """A custom URDF robot has no tip link: the refusal names this parameter and the one that gives a tip
+    (scenario), not the World's keyword arguments."""
+    custom = dict(urdf='kuka_iiwa/model.urdf', joints=['lbr_iiwa_joint_1', 'lbr_iiwa_joint_2'])
+    with pytest.raises(ValueError, match=rf"^{re.escape(name)}: needs a tip link .*\(parameter scenario\)") as err:
+        bridge_params.validate(bridge_params.defaults('', **custom, **{name: value}))
+    assert 'tip=' not in str(err.value)
+    assert bridge_params.validate(bridge_params.defaults('iiwa', **{name: value}))
 
 
 def test_deadline_meter_counts_answers_before_the_next_step():
@@ -701,3 +713,89 @@ def test_lockstep_loop_runs_are_bit_identical(bridge):
         return np.array([loop.world.state()[0]] + [s[3] for s in node.states])
     first, second = run(), run()
     assert np.ptp(first, axis=0).max() > 1e-2 and first.tobytes() == second.tobytes()
+
+
+class ControllerLike:
+    """The controller node's decisions without ROS, on the rclpy-free core it runs: the time line of the stamps
+    (a jump of more than state_timeout is refused while running), the watchdog (no accepted state for
+    state_timeout of the larger of simulation and steady time stops the core, which then restarts from the state
+    it sees) and the core's computed torque holding where it (re)started."""
+
+    def __init__(self, state_timeout=0.5):
+        from robot_control.core.config import ControllerConfig
+        from robot_control.core.controller import ControllerCore
+        from robot_control.core.timeline import Timeline
+        from robot_control.core.watchdog import StateWatchdog
+        from robot_control.gains import design
+        self.core = ControllerCore(ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2),
+                                                    effort_limit=[200.0, 200.0]))
+        self.timeline, self.watchdog = Timeline(state_timeout), StateWatchdog(state_timeout)
+
+    def answer(self, stamp_ns, q, qd, steady_ns):
+        """The command (tau, stamp) for the state stamped `stamp_ns`, or None when the state is refused."""
+        if self.core.active and self.watchdog.check(stamp_ns, steady_ns):
+            self.core.stop()
+        try:
+            t = self.timeline.accept(stamp_ns, running=self.core.active)
+        except ValueError:
+            return None
+        tau = self.core.update(t, q, qd).tolist()
+        self.watchdog.fresh(stamp_ns, steady_ns)
+        return tau, stamp_ns
+
+
+def test_realtime_reset_holds_the_initial_positions_after_pause_and_resume(bridge):
+    """Pause, resume and ~/reset in realtime, 20 times, with a controller that answers each state one tick later:
+    the answer to the last state before the reset is still on its way when the World is rebuilt. Stamped with a
+    time of the old run, after the new run's time, it must be ignored: applied, it would release the brakes and
+    push the rebuilt robot with the torque of another pose until the brakes came back (command_timeout later), and
+    the controller, refusing the jump back in time until its watchdog trips, would restart and hold there. Each
+    time, 3 s after the reset the arm is within 1e-3 rad (m) of initial_positions."""
+    loop, node = bridge(mode='realtime')
+    ctrl, world, in_flight = ControllerLike(), loop.world, None
+
+    def run(seconds):
+        nonlocal in_flight
+        for _ in range(int(round(seconds * 1000))):
+            if in_flight is not None:                  # the answer to the previous state arrives
+                loop.on_joint_command(in_flight[1], JOINTS, in_flight[0])
+            node.now += MS
+            loop.on_timer()
+            q, qd, _ = world.state()
+            in_flight = ctrl.answer(world.t_ns, q, qd, node.now)
+
+    errors = []
+    for k in range(20):
+        run(0.1)
+        ctrl.core.set_goal([0.5 * (-1) ** k, 0.8], duration=0.3)     # away from initial_positions
+        run(0.5)
+        assert np.abs(world.state()[0] - Q0).max() > 0.1
+        loop.pause(True)
+        node.now += 300 * MS
+        loop.on_timer()                                # the paused state is re-published, and answered
+        loop.pause(False)
+        run(0.05)
+        loop.reset()
+        run(3.0)
+        errors.append(np.abs(world.state()[0] - Q0).max())
+    assert max(errors) < 1e-3, errors
+    assert loop.outdated_commands == 20                # each answer in flight at the reset, ignored
+
+
+def test_realtime_after_a_reset_only_stamps_of_the_old_run_are_ignored(bridge):
+    """Ahead of the current time, a stamp up to where the run before the reset got answers a state of that run
+    (ignored, counted as outdated); one beyond it is another time base (applied, as before any reset)."""
+    loop, node = bridge(mode='realtime')
+    loop.on_joint_command(0, JOINTS, HOLD)
+    for _ in range(30):
+        node.now += 10 * MS
+        loop.on_timer()
+    loop.reset()
+    node.now += 10 * MS
+    loop.on_timer()
+    loop.on_joint_command(300 * MS, JOINTS, HOLD)              # the old run's last state: ignored
+    assert loop.outdated_commands == 1 and loop.world.braked
+    assert node.logs[-1] == ('info', 'ignored a command answering the state of t = 0.300 s at t = 0.010 s (a state '
+                                     'of the run before the reset); 1 so far; the brakes stay on until a fresh command')
+    loop.on_joint_command(300 * MS + 1, JOINTS, HOLD)          # beyond it: not of the old run
+    assert loop.outdated_commands == 1 and not loop.world.braked

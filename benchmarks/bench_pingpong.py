@@ -1,7 +1,7 @@
 """The transport floor of benchmark B2: a bare rclpy ping-pong between two processes.
 
-    python -m robot_control.tools.bench_pingpong ping --joints theta1 r [--executor events] [--ros-args ...]
-    python -m robot_control.tools.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
+    python -m benchmarks.bench_pingpong ping --joints theta1 r [--executor events] [--ros-args ...]
+    python -m benchmarks.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
 
 Same messages, topics, QoS (the nodes' publisher and subscription profiles) and stamps as the
 lockstep loop, nothing else: `ping` plays the bridge (publishes sensor_msgs/JointState on
@@ -82,7 +82,7 @@ class Pong(Node):
 
 
 def parse_args(argv):
-    parser = argparse.ArgumentParser(prog='python -m robot_control.tools.bench_pingpong', description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(prog='python -m benchmarks.bench_pingpong', description=__doc__.split('\n')[0])
     parser.add_argument('role', choices=('ping', 'pong'))
     parser.add_argument('--joints', nargs='+', required=True, help='joint names in the messages')
     parser.add_argument('--executor', choices=('single', 'events'), default='single')
