@@ -14,6 +14,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml', 'LICENSE', 'CHANGELOG.rst']),
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
+        ('share/' + PACKAGE + '/config/realism', glob('config/realism/*.yaml')),
         ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py')),
         ('share/' + PACKAGE + '/urdf', glob(PACKAGE + '/urdf/*.urdf')),
         ('share/' + PACKAGE + '/dds', [PACKAGE + '/ros/fastdds_profile.xml']),
