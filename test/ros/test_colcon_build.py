@@ -126,6 +126,8 @@ def test_config_and_urdf_files_are_installed(installed):
     assert names(str(share / 'config' / '*.yaml')) == names(os.path.join(ROOT, 'config', '*.yaml'))
     templates = names(os.path.join(ROOT, 'config', 'templates', '*.yaml'))
     assert templates and names(str(share / 'config' / 'templates' / '*.yaml')) == templates
+    profiles = names(os.path.join(ROOT, 'config', 'realism', '*.yaml'))
+    assert profiles and names(str(share / 'config' / 'realism' / '*.yaml')) == profiles
     urdfs = names(os.path.join(ROOT, PKG, 'urdf', '*.urdf'))
     assert urdfs, 'no shipped URDFs'
     assert names(str(share / 'urdf' / '*.urdf')) == urdfs

@@ -11,6 +11,7 @@ import pytest
 import yaml
 from rclpy.parameter import Parameter
 
+from support.param_files import flatten
 from robot_control import scenarios
 from robot_control.ros.controller_node import ControllerNode
 from robot_control.ros.controller_params import ParameterError
@@ -22,20 +23,10 @@ NODE_SECTIONS = {'/**/controller', '/**/sim_bridge'}    # one file configures bo
 CONTROLLER = '/**/controller'
 
 
-def _flatten(d, prefix=''):
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flatten(v, f'{prefix}{k}.'))
-        else:
-            out[f'{prefix}{k}'] = v
-    return out
-
-
 def _controller_params(path):
     with open(path) as f:
         doc = yaml.safe_load(f)
-    return _flatten(doc[CONTROLLER]['ros__parameters'])
+    return flatten(doc[CONTROLLER]['ros__parameters'])
 
 
 def _node_from_file(context, path):
