@@ -8,10 +8,10 @@ scenario's start):
   - a 0.5 rad quintic move of all 7 joints in 2 s, K = 100 N m/rad: RMS tracking error 1e-6 to 6e-5 rad
     per joint (measured), checked < 5e-4 rad;
   - 0.5 N m unmodelled on joints 5-7 (the wrist): the steady error is -d / K = -5.000e-3 rad (measured to
-    1e-8), checked at 1 %; computed torque (kp = 36 1/s^2) under the same torque comes to rest at
-    E = -M(q)^-1 d / kp, on the wrist's diagonal d / (M_ii kp), M_ii kp = 0.49, 0.32, 0.036 N m/rad at the
-    scenario's start: errors of a radian and more (measured -1.28, -0.59, -2.55 rad), checked > 50x the
-    joint impedance's.
+    1e-8), checked to 5e-5 rad. Computed torque (kp = 36 1/s^2) comes to rest at E = -M(q)^-1 d / kp, on
+    the diagonal d / (M_ii kp), M_ii kp = 0.49, 0.32, 0.036 N m/rad on the wrist at the scenario's start:
+    under 0.5 N m its wrist goes -1.28, -0.59, -2.55 rad off (joint 7 to its limit), checked > 0.5 rad;
+    under 0.01 N m it rests at -0.0214, -0.0340, -0.276 rad, -M(q)^-1 d / kp to 1e-6 (checked at 2 %).
 """
 import numpy as np
 import pinocchio as pin
@@ -22,9 +22,12 @@ from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
-from robot_control.laws import LAWS, State, Reference, joint_impedance
+from robot_control.laws import State, Reference, joint_impedance
 from robot_control.laws.joint_impedance import JointImpedanceParams, _designed_damping
 from robot_control.models import for_scenario, make_model
+from robot_control.param_table import ParameterError
+from robot_control.ros import controller_params as params
+from robot_control.ros.config_builder import ConfigBuilder
 from robot_control.validation import ArgumentError
 from sim_bridge.world import World
 
@@ -158,5 +161,19 @@ def test_an_unmodelled_wrist_torque_leaves_d_over_k_where_computed_torque_leaves
     assert (stiffness < 0.6).all(), stiffness          # N m/rad, against joint impedance's 100
 
 
-def test_the_registry_lists_joint_impedance():
-    assert LAWS['joint_impedance'].name == 'joint_impedance' and not LAWS['joint_impedance'].motion_servo
+def test_the_law_s_rows_are_in_the_controller_table_and_reach_the_law_through_the_config_builder():
+    rows, values = params.TABLE.resolve()
+    assert rows['joint_stiffness'].default == (100.0,) and values['joint_damping'] == () and 'N m/rad' in \
+        rows['joint_stiffness'].description
+    cfg = ConfigBuilder()(params.TABLE.validate({'scenario': 'iiwa', 'law': 'joint_impedance', 'integral': True,
+                                                  'joint_stiffness': [300.0] * 4 + [50.0] * 3, 'joint_damping': [5.0]}))
+    law = cfg.control_law
+    assert cfg.gains is None and law.name == 'joint_impedance' and cfg.integral_dim == 7
+    np.testing.assert_array_equal(law.K, [300.0] * 4 + [50.0] * 3)
+    np.testing.assert_array_equal(law.damping(np.zeros(7)), np.full(7, 5.0))
+    np.testing.assert_array_equal(law.integral_gains()[0], law.K)
+    with pytest.raises(ParameterError, match='^joint_stiffness: expected non-negative'):
+        params.TABLE.validate({'law': 'joint_impedance', 'joint_stiffness': [-1.0]})
+    with pytest.raises(ArgumentError) as err:
+        ConfigBuilder()(params.TABLE.validate({'scenario': 'iiwa', 'law': 'joint_impedance', 'joint_ki': [1.0] * 3}))
+    assert err.value.name == 'joint_ki'
