@@ -177,3 +177,11 @@ def test_the_law_s_rows_are_in_the_controller_table_and_reach_the_law_through_th
     with pytest.raises(ArgumentError) as err:
         ConfigBuilder()(params.TABLE.validate({'scenario': 'iiwa', 'law': 'joint_impedance', 'joint_ki': [1.0] * 3}))
     assert err.value.name == 'joint_ki'
+
+
+def test_with_integral_action_the_wrist_error_under_a_constant_torque_dies_out(iiwa):
+    """ki = K / 1 s (the default): 6 s after the move started, 4 s after it ended, the 5 mrad of PD is gone
+    (measured 1.2e-5 rad; 2.5e-4 at 3 s), checked < 2 % of d / K."""
+    errors, _ = run_iiwa(ControllerConfig(iiwa, law='joint_impedance', integral=True), T=6.0,
+                         disturbance=lambda q, qd: WRIST)
+    assert np.abs(errors[-1]).max() < 0.02 * WRIST.max() / K, errors[-1]
