@@ -29,6 +29,7 @@ from robot_control.urdf import checks
 from robot_control.models import make_model, urdf_gen
 from sim_bridge import physics_check, surfaces
 from sim_bridge.disturbance import Disturbance
+from sim_bridge.joint_friction import JointFriction, JointPhysics
 
 #: world gravity when neither the scenario nor `params` sets one, m/s^2
 #: brake holding force where the URDF sets no effort limit, N m or N
@@ -181,6 +182,21 @@ def _check_travel(joints, q0, travel):
             raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
 
 
+def _make_wall(world, client, body, tip):
+    """The surface of `world`'s spec (surfaces.Wall) that only the tip link `tip` touches."""
+    spec = world._spec
+    normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
+    radius = surfaces.tip_radius(client, body, tip)
+    half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
+    wall = surfaces.Wall(client, spec.surface, normal, radius, world.tip_position(), spec.surface_damping, half)
+    # The lecture's environment is a spring on the tip: only the tip's probe touches the surface.
+    # (The iiwa's wrist, lbr_iiwa_link_6, reaches the table top next to lbr_iiwa_link_7's origin.)
+    for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
+        if link != tip:
+            p.setCollisionFilterPair(body, wall.body, link, -1, 0, physicsClientId=client)
+    return wall
+
+
 class World:
     """A PyBullet world stepping one robot under a held joint torque.
 
@@ -193,12 +209,15 @@ class World:
     surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.
     payload: None or (mass kg, com (3,) m in the tip link's frame): robot_control.urdf.with_payload.
     disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
+    friction: None or {'coulomb': (n,) N m or N, 'viscous': (n,) N m s/rad or N s/m, 'armature': (n,)
+      kg m^2 or kg} of the joints (sim_bridge.joint_friction; see set_friction); None: all zero. The
+      attribute `friction` is the JointFriction in force (read it; change it with set_friction).
     report: the start-up report, a list of strings: the URDF's warnings and where PyBullet's physics at the
       start state differs from Pinocchio's on the same URDF (sim_bridge.physics_check.report).
     """
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
-                 surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None):
+                 surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None, friction=None):
         self.scenario = _scenario(scenario)
         self.dt_ns = _whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
@@ -208,6 +227,7 @@ class World:
             self._spec = _resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
                                   payload, self._tmpdir)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
+            self.friction = JointFriction.of(self.n, friction)
             self._client = p.connect(p.GUI if gui else p.DIRECT)
             if self._client < 0:
                 raise RuntimeError('pybullet: cannot connect a physics client')
@@ -291,13 +311,14 @@ class World:
             raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
         self._index_joints()
         _zero_damping(c, self._body)
+        self._joints = JointPhysics(c, self._body, self._idx, self._tip, self.dt, self.friction)
         _hold(c, self._body, self._others)
         p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
                                     physicsClientId=c)
         _check_travel(self._spec.joints, q0, self._travel)
         for i, q in zip(self._idx, q0):
             p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
-        self._wall = self._make_wall() if spec.surface is not None else None
+        self._wall = _make_wall(self, c, self._body, self._tip) if spec.surface is not None else None
         self.t_ns = 0
         self._tau_list = [0.0] * self.n         # the held torque, as PyBullet is sent it
         self._brake = None
@@ -327,20 +348,6 @@ class World:
         if tip is not None and tip not in links:
             raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
         self._tip = links.get(tip) if tip is not None else None
-
-    def _make_wall(self):
-        spec = self._spec
-        normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
-        radius = surfaces.tip_radius(self._client, self._body, self._tip)
-        half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
-        wall = surfaces.Wall(self._client, spec.surface, normal, radius, self.tip_position(), spec.surface_damping,
-                             half)
-        # The lecture's environment is a spring on the tip: only the tip's probe touches the surface.
-        # (The iiwa's wrist, lbr_iiwa_link_6, reaches the table top next to lbr_iiwa_link_7's origin.)
-        for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
-            if link != self._tip:
-                p.setCollisionFilterPair(self._body, wall.body, link, -1, 0, physicsClientId=self._client)
-        return wall
 
     def reset(self, q0=None):
         """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
@@ -397,6 +404,11 @@ class World:
         (3,) N in world axes at the tip frame origin. None means zero; held until changed."""
         self._disturbance = Disturbance(self.n, joint_torque, cartesian_force, self._tip is not None)
 
+    def set_friction(self, friction):
+        """Replace the joints' friction and armature (the World's `friction` argument), from the next step."""
+        self.friction = JointFriction.of(self.n, friction)
+        self._joints.set(self.friction)
+
     @property
     def disturbance(self):
         """(joint_torque (n,), cartesian_force (3,)) in force, read-only arrays."""
@@ -432,7 +444,8 @@ class World:
             self.t_ns += self.dt_ns
 
     def _apply_loads(self):
-        """Joint torque (actuator unless braked, disturbance, mass-spring) and the Cartesian force."""
+        """Joint torque (actuator unless braked, disturbance, mass-spring, friction and armature) and the
+        Cartesian force."""
         c, spec, dist = self._client, self._spec, self._disturbance
         if self._brake is None and spec.spring is None and not dist.has_joint_torque:
             forces = self._tau_list         # the common case: the actuator torque alone
@@ -442,6 +455,8 @@ class World:
                 x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
                 tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
             forces = tau.tolist()
+        if self._joints.exact and self._brake is None:
+            forces = self._joints.torque(forces, dist.cartesian_force if dist.has_force else None)
         p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=forces, physicsClientId=c)
         if dist.has_force:
             p.applyExternalForce(self._body, self._tip, self._disturbance.cartesian_force.tolist(),

@@ -1,0 +1,225 @@
+"""Joint friction and rotor inertia of the simulated robot: the World's joint-level physics. No rclpy.
+
+Per controlled joint i (SI; revolute: N m, rad/s, kg m^2; prismatic: N, m/s, kg):
+
+    (M(q) + diag(I_a)) qdd + h(q, qd) = tau + tau_env - b qd + f,     h = C(q, qd) qd + g(q)
+
+    b    = friction.viscous, N m s/rad or N s/m: the viscous torque -b_i qd_i
+    F_c  = friction.coulomb, N m or N: Coulomb friction f_i = -F_c,i sign(qd_i) while the joint slips;
+           stiction: a joint at rest stays at rest while the torque that holds it is within F_c,i
+           (the breakaway value)
+    I_a  = armature, kg m^2 or kg: the rotor inertia reflected through the gear (n^2 I_rotor), added
+           to the diagonal of M
+
+tau_env is what the World adds (disturbance, the mass-spring's spring, J^T F of a Cartesian
+disturbance). Joints not controlled are held still, so M, h are the controlled joints' block.
+
+Discrete time, the World's semi-implicit Euler step dt (the Coulomb torque is implicit, as Bullet's
+velocity motors make it):
+
+    qd+ = qd + dt A^-1 (r + f),   A = M + diag(I_a),   r = tau + tau_env - b qd - h
+    f_i = -F_c,i sign(qd+_i) where qd+_i != 0;  |f_i| <= F_c,i where qd+_i = 0
+
+a box-constrained linear complementarity problem, solved exactly by `coulomb_torque`.
+
+How PyBullet is made to simulate it (`JointPhysics`):
+- viscous: PyBullet's joint damping (changeDynamics jointDamping = b adds -b qd at every step, read
+  at the step's start: measured bit-identical to an applied torque -b qd). No call per step.
+- Coulomb or armature non-zero: every step reads q, qd, M (calculateMassMatrix), h
+  (calculateInverseDynamics) and, under a Cartesian disturbance F, the tip Jacobian; solves the
+  equations above for f and qdd = (qd+ - qd) / dt; and sends PyBullet the joint torque
+      tau_sent = tau + tau_env_joint + f - I_a qdd,
+  for which PyBullet's own M qdd_b = tau_sent - b qd - h + J^T F gives qdd_b = qdd.
+  All zero: nothing is read, computed or sent beyond the World's torque.
+Not modelled: the surface contact and the URDF joint limits are constraints PyBullet solves after
+this torque, through M alone (no rotor inertia, no friction in that impulse). While the brakes hold,
+the brakes alone act.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from robot_control import validation
+from robot_control.param_table import Row, gt_eq, size
+from robot_control.validation import ArgumentError
+from sim_bridge import physics_check
+
+#: the World's `friction` keys and the parameters that carry them
+KEYS = ('coulomb', 'viscous', 'armature')
+PARAMETERS = {'coulomb': 'friction.coulomb', 'viscous': 'friction.viscous', 'armature': 'armature'}
+#: relative slack of the breakaway test |f_i| <= F_c,i (round-off of the linear solve)
+BREAKAWAY_RTOL = 1e-12
+
+
+@dataclass(frozen=True, eq=False)
+class JointFriction:
+    """coulomb (n,) N m or N, viscous (n,) N m s/rad or N s/m, armature (n,) kg m^2 or kg: non-negative,
+    per controlled joint. Immutable; `zero`, `exact` (Coulomb or armature non-zero: the per-step path)."""
+
+    coulomb: np.ndarray
+    viscous: np.ndarray
+    armature: np.ndarray
+
+    @classmethod
+    def of(cls, n, config=None):
+        """From None (all zero), a JointFriction, or a mapping with some of KEYS; ArgumentError naming
+        friction.coulomb, friction.viscous or armature."""
+        if isinstance(config, JointFriction):
+            config = {k: getattr(config, k) for k in KEYS}
+        if config is None:
+            config = {}
+        if not hasattr(config, 'keys'):
+            raise ArgumentError('friction', f'expected None or a mapping with keys {list(KEYS)}, got {config!r}')
+        unknown = sorted(set(config) - set(KEYS))
+        if unknown:
+            raise ArgumentError('friction', f'unknown keys {unknown}; expected some of {list(KEYS)}')
+        values = {}
+        for key in KEYS:
+            v = config.get(key)
+            v = np.zeros(n) if v is None or len(v) == 0 else validation.vector(PARAMETERS[key], v, n).copy()
+            if np.any(v < 0.0):
+                raise ArgumentError(PARAMETERS[key], f'expected non-negative values, got {v.tolist()}')
+            v.setflags(write=False)
+            values[key] = v
+        return cls(**values)
+
+    @property
+    def zero(self):
+        return not (self.coulomb.any() or self.viscous.any() or self.armature.any())
+
+    @property
+    def exact(self):
+        """True when the per-step path runs (Coulomb friction or armature on some joint)."""
+        return bool(self.coulomb.any() or self.armature.any())
+
+    def __eq__(self, other):
+        return isinstance(other, JointFriction) and all(np.array_equal(getattr(self, k), getattr(other, k))
+                                                        for k in KEYS)
+
+    __hash__ = None
+
+
+def rows(n):
+    """The bridge's rows of the joint physics (sim_bridge.bridge_params gathers them): n joints."""
+    per_joint = size('joints', 'joint', empty_ok=True)
+    zeros = (0.0,) * n
+    return [
+        Row('friction.coulomb', 'double_array', zeros,
+            'Coulomb friction of each joint of the simulated robot, N m or N, in joints order: -F_c sign(qd) while '
+            'it slips; a joint at rest stays at rest while the torque holding it is below F_c (stiction).',
+            [per_joint, gt_eq(0)]),
+        Row('friction.viscous', 'double_array', zeros,
+            'Viscous friction of each joint of the simulated robot, N m s/rad or N s/m: the torque -b qd.',
+            [per_joint, gt_eq(0)]),
+        Row('armature', 'double_array', zeros,
+            'Rotor inertia of each joint of the simulated robot reflected through its gear, kg m^2 or kg: '
+            'added to the diagonal of M(q).', [per_joint, gt_eq(0)]),
+    ]
+
+
+def from_values(values, n):
+    """The JointFriction of checked parameter values (rows' rules hold)."""
+    return JointFriction.of(n, {key: values[name] for key, name in PARAMETERS.items()})
+
+
+def coulomb_torque(W, v_free, fc, stuck):
+    """(f (n,) N m or N, qd+ (n,), stuck (n,) bool): the implicit Coulomb torque of one step.
+
+    W = dt A^-1 (n, n) (velocity change per unit torque, s/kg m^2), v_free = qd + dt A^-1 r (the
+    velocities after the step without Coulomb friction), fc (n,) >= 0 the breakaway torques, stuck
+    (n,) bool a guess of the joints at rest (the previous step's answer). Solves
+        qd+ = v_free + W f,  f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
+    (f_i = 0 where fc_i = 0) by active sets: the stuck joints' f from W_SS f_S = -(v_free + W f)_S, a stuck
+    joint needing more than fc_i breaks away (slips against its holding torque), a slipping joint whose
+    velocity would reverse sticks; repeated until consistent (one pass in the common case), then
+    `_coordinate_descent` if the pivoting cycles."""
+    has = fc > 0.0
+    sign = np.sign(v_free)
+    stuck = (stuck | (sign == 0.0)) & has
+    for _ in range(4 * len(fc) + 4):
+        f = np.where(stuck, 0.0, -fc * sign)
+        if stuck.any():
+            s = np.flatnonzero(stuck)
+            rows = W[s]
+            f[s] = np.linalg.solve(rows[:, s], -(v_free[s] + rows @ f))     # f[s] is 0 on the right
+        v = v_free + W @ f
+        breaks = stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
+        reverses = has & ~stuck & (v * sign < 0.0)
+        if not (breaks.any() or reverses.any()):
+            return f, v, stuck
+        sign = np.where(breaks, -np.sign(f), sign)
+        stuck = (stuck & ~breaks) | reverses
+    return _coordinate_descent(W, v_free, fc)
+
+
+def _coordinate_descent(W, v_free, fc, sweeps=10000, tol=1e-15):
+    """coulomb_torque's fallback: projected Gauss-Seidel on the same problem (the minimum of
+    f^T W f / 2 + f^T v_free over |f_i| <= fc_i), until no f_i moves by more than tol fc_i."""
+    f = np.zeros(len(fc))
+    for _ in range(sweeps):
+        moved = 0.0
+        for i in np.flatnonzero(fc > 0.0):
+            new = min(max(f[i] - (v_free[i] + W[i] @ f) / W[i, i], -fc[i]), fc[i])
+            moved, f[i] = max(moved, abs(new - f[i]) / fc[i]), new
+        if moved <= tol:
+            break
+    v = v_free + W @ f
+    return f, v, (fc > 0.0) & (np.abs(f) < fc)
+
+
+class JointPhysics:
+    """The joint physics of one built PyBullet body: `joints` the controlled joints' PyBullet indices,
+    `tip` the tip link index or None, dt the step, s. `set(friction)` puts a JointFriction in force; `torque` is the
+    World's per-step call."""
+
+    def __init__(self, client, body, joints, tip, dt, friction):
+        self._client, self._body, self._joints, self._tip, self.dt = client, body, list(joints), tip, dt
+        self._movable = list(physics_check.movable_joints(client, body).values())
+        dof = np.array([self._movable.index(j) for j in joints])
+        #: the controlled joints' block of the full mass matrix and vectors (None: every movable joint, in order)
+        self._dof = None if dof.tolist() == list(range(len(self._movable))) else dof
+        self._block = None if self._dof is None else (dof[:, None], dof)
+        self._zeros = [0.0] * len(self._movable)
+        self._stuck = np.zeros(len(joints), dtype=bool)
+        self.set(friction)
+
+    def set(self, friction):
+        """Put `friction` (a JointFriction for these joints) in force from the next step."""
+        self.friction = friction
+        self.exact = friction.exact
+        self._armature = np.diag(friction.armature)
+        for j, b in zip(self._joints, friction.viscous.tolist()):
+            p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
+
+    def torque(self, forces, cartesian_force=None):
+        """The joint torques (list of n floats) to send PyBullet for the step about to run, given `forces`
+        (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
+        (3,) N or None (PyBullet applies it): see the module docstring."""
+        c, body, fr = self._client, self._body, self.friction
+        states = p.getJointStates(body, self._movable, physicsClientId=c)
+        q_all = [s[0] for s in states]
+        qd_all = [s[1] for s in states]
+        mass = np.array(p.calculateMassMatrix(body, q_all, physicsClientId=c))
+        h = np.array(p.calculateInverseDynamics(body, q_all, qd_all, self._zeros, physicsClientId=c))
+        qd = np.array(qd_all)
+        if self._dof is not None:
+            mass, h, qd = mass[self._block], h[self._dof], qd[self._dof]
+        tau = np.array(forces)
+        r = tau - fr.viscous * qd - h
+        if cartesian_force is not None:
+            r += self._jacobian(q_all, qd_all).T @ cartesian_force
+        w = self.dt * np.linalg.inv(mass + self._armature)
+        v_free = qd + w @ r
+        if fr.coulomb.any():
+            f, v, self._stuck = coulomb_torque(w, v_free, fr.coulomb, self._stuck)
+        else:
+            f, v = 0.0, v_free
+        return (tau + f - fr.armature * ((v - qd) / self.dt)).tolist()
+
+    def _jacobian(self, q_all, qd_all):
+        """The tip frame origin's linear Jacobian (3, n), m/rad or 1, world axes: where the World applies
+        the Cartesian disturbance (calculateJacobian's point is in the link frame, measured)."""
+        linear, _ = p.calculateJacobian(self._body, self._tip, [0.0, 0.0, 0.0], q_all, qd_all, self._zeros,
+                                        physicsClientId=self._client)
+        return np.array(linear) if self._dof is None else np.array(linear)[:, self._dof]
