@@ -27,9 +27,10 @@ from robot_control import scenarios, units, validation
 from robot_control import urdf as urdf_files
 from robot_control.urdf import checks
 from robot_control.models import make_model, urdf_gen
-from sim_bridge import physics_check, surfaces
+from sim_bridge import physics_check, surfaces, true_robot
 from sim_bridge.disturbance import Disturbance
-from sim_bridge.joint_friction import JointFriction, JointPhysics
+from sim_bridge.joint_friction import JointFriction
+from sim_bridge.joint_physics import JointPhysics
 
 #: world gravity when neither the scenario nor `params` sets one, m/s^2
 #: brake holding force where the URDF sets no effort limit, N m or N
@@ -69,9 +70,10 @@ def _truth(sc, params):
     base = dict(sc.params) if sc is not None else {}
     truth, model = {**base, **params}, None
     if sc is None or sc.model == 'urdf':
-        unknown = sorted(set(params) - {'gravity'})
+        unknown = sorted(set(params) - {'gravity', *true_robot.KEYS})
         if unknown:
-            raise ArgumentError('params', f'unknown {unknown} for a URDF robot; only gravity can be set')
+            raise ArgumentError('params', f'unknown {unknown} for a URDF robot; expected some of '
+                                          f"{['gravity', *true_robot.KEYS]}")
     else:
         try:
             model = make_model(sc.model, **truth)
@@ -115,6 +117,18 @@ def _with_payload(path, tip, payload, tmpdir):
     return out
 
 
+def _changed_links(path, joints, changes, tmpdir):
+    """The URDF at `path` with its links changed (sim_bridge.true_robot), or `path` when `changes` is None."""
+    if changes is None:
+        return path
+    with open(path, encoding='utf-8') as f:
+        xml = true_robot.with_changed_links(f.read(), joints, *changes)
+    out = os.path.join(tmpdir, 'changed_links.urdf')
+    with open(out, 'w', encoding='utf-8') as f:
+        f.write(xml)
+    return out
+
+
 def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payload, tmpdir):
     """The build specification; every check that can fail before PyBullet runs."""
     truth, model, gravity = _truth(sc, params)
@@ -133,6 +147,8 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payloa
     joints = validation.names('joints', sc.joints if joints is None else joints)
     if not joints:
         raise ArgumentError('joints', 'expected at least one joint')
+    if not closed_form:
+        path = _changed_links(path, joints, true_robot.changes(truth, len(joints)), tmpdir)
     start = q0 if q0 is not None else (sc.q0 if sc is not None else np.zeros(len(joints)))
     q0 = validation.vector('q0', start, len(joints))
     if tip is None and sc is not None:
@@ -203,7 +219,9 @@ class World:
     scenario: name or Scenario (robot_control.scenarios), or None with urdf= and joints=.
     gui: open the PyBullet GUI instead of DIRECT. dt: physics step, s (a whole number of ns).
     params: physical overrides of the simulated robot (e.g. {'m': 2.5}: heavier than the
-      controller's model); closed-form URDFs are regenerated; 'gravity' (m/s^2) for any robot.
+      controller's model); closed-form URDFs are regenerated; 'gravity' (m/s^2) for any robot; for a
+      URDF robot 'mass_scale', 'inertia_scale' ((n,) or one factor) and 'com_offset' ((3 n,) m) change the
+      link each joint moves (sim_bridge.true_robot).
     urdf, joints, q0, tip: override the scenario's URDF file, joint names (command order),
       start positions (rad or m) and tip link.
     surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.

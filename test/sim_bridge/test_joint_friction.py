@@ -13,6 +13,7 @@ import pybullet as p
 import pytest
 
 from robot_control.validation import ArgumentError
+from sim_bridge import bridge_params
 from sim_bridge.joint_friction import JointFriction, coulomb_torque
 
 DT = 0.001
@@ -192,3 +193,13 @@ def test_bad_friction_names_what_is_wrong(friction, name):
     with pytest.raises(ArgumentError) as info:
         JointFriction.of(1, friction)
     assert info.value.name == name
+
+
+def test_the_bridge_shows_zero_friction_by_default_and_passes_what_is_set():
+    values = bridge_params.defaults('iiwa')
+    assert all(values[k] == (0.0,) * 7 for k in ('friction.coulomb', 'friction.viscous', 'armature'))
+    cfg = bridge_params.validate(bridge_params.defaults('iiwa', **{'friction.coulomb': IIWA_COULOMB}))
+    assert cfg.friction == JointFriction.of(7, {'coulomb': IIWA_COULOMB})
+    with pytest.raises(ArgumentError) as info:
+        bridge_params.validate(bridge_params.defaults('polar_two_link', **{'friction.viscous': [1.0]}))
+    assert info.value.name == 'friction.viscous'
