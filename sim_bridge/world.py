@@ -198,6 +198,28 @@ def _check_travel(joints, q0, travel):
             raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
 
 
+def _indices(client, body, joints, tip):
+    """(PyBullet indices of the controlled `joints`, their travel [(lower, upper)], the indices of the other
+    movable joints, the effort limits (n,) N m or N (inf where the URDF sets none), the index of link `tip`
+    or None); ArgumentError naming joints or tip when the URDF lacks one."""
+    movable, links, limits, travel = {}, {}, {}, {}
+    for j in range(p.getNumJoints(body, physicsClientId=client)):
+        info = p.getJointInfo(body, j, physicsClientId=client)
+        links[info[12].decode()] = j
+        if info[2] != p.JOINT_FIXED:
+            movable[info[1].decode()] = j
+            limits[j] = info[10] if info[10] > 0.0 else math.inf
+            travel[j] = (info[8], info[9])
+    unknown = [name for name in joints if name not in movable]
+    if unknown:
+        raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+    idx = [movable[name] for name in joints]
+    if tip is not None and tip not in links:
+        raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
+    return (idx, [travel[j] for j in idx], [j for j in movable.values() if j not in idx],
+            np.array([limits[j] for j in idx]), links.get(tip) if tip is not None else None)
+
+
 def _make_wall(world, client, body, tip):
     """The surface of `world`'s spec (surfaces.Wall) that only the tip link `tip` touches."""
     spec = world._spec
@@ -327,7 +349,10 @@ class World:
                                     physicsClientId=c)
         except p.error as exc:
             raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
-        self._index_joints()
+        indices = _indices(c, self._body, spec.joints, spec.tip)
+        self._idx, self._travel, self._others, self._limit, self._tip = indices
+        self._neg_limit, self._limit_min = -self._limit, float(np.min(self._limit))
+        self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
         _zero_damping(c, self._body)
         self._joints = JointPhysics(c, self._body, self._idx, self._tip, self.dt, self.friction)
         _hold(c, self._body, self._others)
@@ -340,32 +365,6 @@ class World:
         self.t_ns = 0
         self._tau_list = [0.0] * self.n         # the held torque, as PyBullet is sent it
         self._brake = None
-
-    def _index_joints(self):
-        """PyBullet indices of the controlled joints and the tip link; effort limits."""
-        c, body = self._client, self._body
-        movable, links, limits, travel = {}, {}, {}, {}
-        for j in range(p.getNumJoints(body, physicsClientId=c)):
-            info = p.getJointInfo(body, j, physicsClientId=c)
-            links[info[12].decode()] = j
-            if info[2] != p.JOINT_FIXED:
-                movable[info[1].decode()] = j
-                limits[j] = info[10] if info[10] > 0.0 else math.inf
-                travel[j] = (info[8], info[9])
-        unknown = [name for name in self._spec.joints if name not in movable]
-        if unknown:
-            raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
-        self._idx = [movable[name] for name in self._spec.joints]
-        self._travel = [travel[j] for j in self._idx]
-        self._others = [j for j in movable.values() if j not in self._idx]
-        self._limit = np.array([limits[j] for j in self._idx])
-        self._neg_limit = -self._limit
-        self._limit_min = float(np.min(self._limit))
-        self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
-        tip = self._spec.tip
-        if tip is not None and tip not in links:
-            raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
-        self._tip = links.get(tip) if tip is not None else None
 
     def reset(self, q0=None):
         """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
