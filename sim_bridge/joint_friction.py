@@ -122,39 +122,57 @@ def from_values(values, n):
     return JointFriction.of(n, {key: values[name] for key, name in PARAMETERS.items()})
 
 
-def coulomb_torque(W, v_free, fc, stuck):
-    """(f (n,) N m or N, qd+ (n,), stuck (n,) bool): the implicit Coulomb torque of one step.
+def coulomb_torque(A, b, dt, fc, stuck):
+    """(f (n,) N m or N, qd+ (n,), stuck (n,) bool): the implicit Coulomb torque of one step and the
+    velocities after it.
 
-    W = dt A^-1 (n, n) (velocity change per unit torque, s/kg m^2), v_free = qd + dt A^-1 r (the
-    velocities after the step without Coulomb friction), fc (n,) >= 0 the breakaway torques, stuck
-    (n,) bool a guess of the joints at rest (the previous step's answer). Solves
-        qd+ = v_free + W f,  f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
-    (f_i = 0 where fc_i = 0) by active sets: the stuck joints' f from W_SS f_S = -(v_free + W f)_S, a stuck
-    joint needing more than fc_i breaks away (slips against its holding torque), a slipping joint whose
-    velocity would reverse sticks; repeated until consistent (one pass in the common case), then
-    `_coordinate_descent` if the pivoting cycles."""
+    A (n, n) the inertia M + diag(I_a), kg m^2 or kg; b = A qd / dt + r (n,), N m or N (r: every torque
+    but Coulomb friction, less h); dt s; fc (n,) >= 0 the breakaway torques; stuck (n,) bool a guess of
+    the joints at rest after the step (the previous step's answer). Solves
+        A (qd+ - qd) / dt = r + f,   f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
+    (f_i = 0 where fc_i = 0) by active sets. For stuck joints S (qd+_S = 0) and slipping joints N
+    (f_N = -fc_N s_N, s_N their direction):
+        qd+_N = dt A_NN^-1 (b + f)_N,   f_S = A_SN qd+_N / dt - b_S;
+    a stuck joint needing more than fc_i breaks away (slips against its holding torque), a slipping
+    joint whose velocity would reverse sticks: every such joint after the first pass, the first of them
+    (least index, as Murty's pivoting) after that; repeated until consistent (one pass in the common
+    cases: all stuck, no solve; all slipping, one), then `_coordinate_descent` if that does not end."""
     has = fc > 0.0
-    sign = np.sign(v_free)
+    sign = np.sign(b)
     stuck = (stuck | (sign == 0.0)) & has
-    for _ in range(4 * len(fc) + 4):
-        f = np.where(stuck, 0.0, -fc * sign)
-        if stuck.any():
-            s = np.flatnonzero(stuck)
-            rows = W[s]
-            f[s] = np.linalg.solve(rows[:, s], -(v_free[s] + rows @ f))     # f[s] is 0 on the right
-        v = v_free + W @ f
-        breaks = stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
-        reverses = has & ~stuck & (v * sign < 0.0)
-        if not (breaks.any() or reverses.any()):
+    for k in range(4 * len(fc) + 4):
+        f, v, wrong = _given(A, b, dt, fc, stuck, sign)
+        if not wrong.any():
             return f, v, stuck
-        sign = np.where(breaks, -np.sign(f), sign)
-        stuck = (stuck & ~breaks) | reverses
-    return _coordinate_descent(W, v_free, fc)
+        if k:                                   # after the first pass: the first wrong joint alone (Murty)
+            wrong[np.argmax(wrong) + 1:] = False
+        sign = np.where(stuck & wrong, -np.sign(f), sign)
+        stuck = stuck ^ wrong
+    f = _coordinate_descent(dt * np.linalg.inv(A), dt * np.linalg.solve(A, b), fc)
+    stuck = has & (np.abs(f) < fc * (1.0 - 1e-9))
+    f_exact, v, wrong = _given(A, b, dt, fc, stuck, -np.sign(f))     # its sets, solved exactly
+    return (f_exact, v, stuck) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f), stuck)
 
 
-def _coordinate_descent(W, v_free, fc, sweeps=10000, tol=1e-15):
-    """coulomb_torque's fallback: projected Gauss-Seidel on the same problem (the minimum of
-    f^T W f / 2 + f^T v_free over |f_i| <= fc_i), until no f_i moves by more than tol fc_i."""
+def _given(A, b, dt, fc, stuck, sign):
+    """(f, qd+, wrong) of coulomb_torque for the stuck joints `stuck` and the slipping joints' directions
+    `sign`; wrong (n,) bool marks the joints whose assumption fails (a stuck joint needing more than
+    fc_i, a slipping one whose velocity would reverse)."""
+    f = np.where(stuck, 0.0, -fc * sign)
+    v = np.zeros(len(fc))
+    slip = np.flatnonzero(~stuck)
+    if len(slip):
+        v[slip] = dt * np.linalg.solve(A[slip[:, None], slip], (b + f)[slip])
+    if len(slip) < len(fc):
+        f = np.where(stuck, A @ v / dt - b, f)
+    breaks = stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
+    return f, v, breaks | ((fc > 0.0) & ~stuck & (v * sign < 0.0))
+
+
+def _coordinate_descent(W, v_free, fc, sweeps=1000, tol=1e-15):
+    """f: coulomb_torque's fallback, projected Gauss-Seidel on the same problem written with
+    W = dt A^-1 and v_free = dt A^-1 b (the minimum of f^T W f / 2 + f^T v_free over |f_i| <= fc_i), until no
+    f_i moves by more than tol fc_i."""
     f = np.zeros(len(fc))
     for _ in range(sweeps):
         moved = 0.0
@@ -163,5 +181,4 @@ def _coordinate_descent(W, v_free, fc, sweeps=10000, tol=1e-15):
             moved, f[i] = max(moved, abs(new - f[i]) / fc[i]), new
         if moved <= tol:
             break
-    v = v_free + W @ f
-    return f, v, (fc > 0.0) & (np.abs(f) < fc)
+    return f

@@ -48,12 +48,8 @@ class JointPhysics:
         r = tau - fr.viscous * qd - h
         if cartesian_force is not None:
             r += self._jacobian(q_all, qd_all).T @ cartesian_force
-        w = self.dt * np.linalg.inv(mass + self._armature)
-        v_free = qd + w @ r
-        if fr.coulomb.any():
-            f, v, self._stuck = coulomb_torque(w, v_free, fr.coulomb, self._stuck)
-        else:
-            f, v = 0.0, v_free
+        inertia = mass + self._armature
+        f, v, self._stuck = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb, self._stuck)
         return (tau + f - fr.armature * ((v - qd) / self.dt)).tolist()
 
     def _jacobian(self, q_all, qd_all):
