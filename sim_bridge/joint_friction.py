@@ -122,36 +122,43 @@ def from_values(values, n):
     return JointFriction.of(n, {key: values[name] for key, name in PARAMETERS.items()})
 
 
-def coulomb_torque(A, b, dt, fc, stuck):
-    """(f (n,) N m or N, qd+ (n,), stuck (n,) bool): the implicit Coulomb torque of one step and the
-    velocities after it.
+def coulomb_torque(A, b, dt, fc):
+    """(f (n,) N m or N, qd+ (n,)): the implicit Coulomb torque of one step and the velocities after it.
 
     A (n, n) the inertia M + diag(I_a), kg m^2 or kg; b = A qd / dt + r (n,), N m or N (r: every torque
-    but Coulomb friction, less h); dt s; fc (n,) >= 0 the breakaway torques; stuck (n,) bool a guess of
-    the joints at rest after the step (the previous step's answer). Solves
+    but Coulomb friction, less h); dt s; fc (n,) >= 0 the breakaway torques. Solves
         A (qd+ - qd) / dt = r + f,   f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
     (f_i = 0 where fc_i = 0) by active sets. For stuck joints S (qd+_S = 0) and slipping joints N
     (f_N = -fc_N s_N, s_N their direction):
-        qd+_N = dt A_NN^-1 (b + f)_N,   f_S = A_SN qd+_N / dt - b_S;
-    a stuck joint needing more than fc_i breaks away (slips against its holding torque), a slipping
-    joint whose velocity would reverse sticks: every such joint after the first pass, the first of them
-    (least index, as Murty's pivoting) after that; repeated until consistent (one pass in the common
-    cases: all stuck, no solve; all slipping, one), then `_coordinate_descent` if that does not end."""
+        qd+_N = dt A_NN^-1 (b + f)_N,   f_S = A_SN qd+_N / dt - b_S.
+    First guess, from the velocities without friction qd_free = dt A^-1 b: a joint is stuck when its own
+    friction alone could stop it, A_ii |qd_free,i| / dt <= fc_i, else it slips along qd_free,i. Then a
+    stuck joint needing more than fc_i breaks away (slips against its holding torque) and a slipping joint
+    whose velocity would reverse sticks: all such joints at once, and the first of them alone (least
+    index, as Murty's pivoting) once a guess repeats; until consistent (about one pass on average on the
+    iiwa), `_coordinate_descent` if that does not end."""
     has = fc > 0.0
-    sign = np.sign(b)
-    stuck = (stuck | (sign == 0.0)) & has
-    for k in range(4 * len(fc) + 4):
+    free = np.linalg.solve(A, b)                       # qd_free / dt
+    if not has.any():
+        return np.zeros(len(fc)), dt * free
+    sign = np.sign(free)
+    stuck = has & (np.abs(free) * np.diag(A) <= fc)
+    seen, least_index = set(), False
+    for _ in range(4 * len(fc) + 4):
         f, v, wrong = _given(A, b, dt, fc, stuck, sign)
         if not wrong.any():
-            return f, v, stuck
-        if k:                                   # after the first pass: the first wrong joint alone (Murty)
+            return f, v
+        key = (stuck.tobytes(), sign.tobytes())
+        least_index = least_index or key in seen
+        seen.add(key)
+        if least_index:
             wrong[np.argmax(wrong) + 1:] = False
         sign = np.where(stuck & wrong, -np.sign(f), sign)
         stuck = stuck ^ wrong
-    f = _coordinate_descent(dt * np.linalg.inv(A), dt * np.linalg.solve(A, b), fc)
+    f = _coordinate_descent(dt * np.linalg.inv(A), dt * free, fc)
     stuck = has & (np.abs(f) < fc * (1.0 - 1e-9))
     f_exact, v, wrong = _given(A, b, dt, fc, stuck, -np.sign(f))     # its sets, solved exactly
-    return (f_exact, v, stuck) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f), stuck)
+    return (f_exact, v) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f))
 
 
 def _given(A, b, dt, fc, stuck, sign):
@@ -161,7 +168,9 @@ def _given(A, b, dt, fc, stuck, sign):
     f = np.where(stuck, 0.0, -fc * sign)
     v = np.zeros(len(fc))
     slip = np.flatnonzero(~stuck)
-    if len(slip):
+    if len(slip) == len(fc):
+        v = dt * np.linalg.solve(A, b + f)
+    elif len(slip):
         v[slip] = dt * np.linalg.solve(A[slip[:, None], slip], (b + f)[slip])
     if len(slip) < len(fc):
         f = np.where(stuck, A @ v / dt - b, f)

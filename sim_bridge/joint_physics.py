@@ -20,7 +20,6 @@ class JointPhysics:
         self._dof = None if dof.tolist() == list(range(len(self._movable))) else dof
         self._block = None if self._dof is None else (dof[:, None], dof)
         self._zeros = [0.0] * len(self._movable)
-        self._stuck = np.zeros(len(joints), dtype=bool)
         self.set(friction)
 
     def set(self, friction):
@@ -49,7 +48,7 @@ class JointPhysics:
         if cartesian_force is not None:
             r += self._jacobian(q_all, qd_all).T @ cartesian_force
         inertia = mass + self._armature
-        f, v, self._stuck = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb, self._stuck)
+        f, v = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb)
         return (tau + f - fr.armature * ((v - qd) / self.dt)).tolist()
 
     def _jacobian(self, q_all, qd_all):
