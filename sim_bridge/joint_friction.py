@@ -16,7 +16,8 @@ tau_env is what the World adds (disturbance, the mass-spring's spring, J^T F of 
 disturbance). Joints not controlled are held still, so M, h are the controlled joints' block.
 
 Discrete time, the World's semi-implicit Euler step dt (the Coulomb torque is implicit, as Bullet's
-velocity motors make it):
+velocity motors make it; those motors' iterative solver leaves coupled joints creeping, e.g. 4.9e-4 rad
+in 1 s on the iiwa held at 0.9 F_c with default settings, hence the exact solve here):
 
     qd+ = qd + dt A^-1 (r + f),   A = M + diag(I_a),   r = tau + tau_env - b qd - h
     f_i = -F_c,i sign(qd+_i) where qd+_i != 0;  |f_i| <= F_c,i where qd+_i = 0
@@ -54,7 +55,7 @@ BREAKAWAY_RTOL = 1e-12
 @dataclass(frozen=True, eq=False)
 class JointFriction:
     """coulomb (n,) N m or N, viscous (n,) N m s/rad or N s/m, armature (n,) kg m^2 or kg: non-negative,
-    per controlled joint. Immutable; `zero`, `exact` (Coulomb or armature non-zero: the per-step path)."""
+    per controlled joint. Immutable; `exact`: Coulomb or armature non-zero (the per-step path)."""
 
     coulomb: np.ndarray
     viscous: np.ndarray
@@ -82,10 +83,6 @@ class JointFriction:
             v.setflags(write=False)
             values[key] = v
         return cls(**values)
-
-    @property
-    def zero(self):
-        return not (self.coulomb.any() or self.viscous.any() or self.armature.any())
 
     @property
     def exact(self):

@@ -1,17 +1,20 @@
 """The PyBullet world: the "real robot" of every scenario. No rclpy, no messages.
 
-    M(q) qdd + C(q, qd) qd + g(q) = tau + tau_env,   tau = clip(command, effort limits)
+    (M(q) + diag(I_a)) qdd + C(q, qd) qd + g(q) = tau + tau_env + tau_f,   tau = clip(command, effort limits)
 
 tau_env holds what the world adds: the mass-spring's -k x^3 - b xd, contact with the surface,
-and the configured disturbance. Units SI (rad, m, N m, N, s); time is kept as integer
-nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True).
+and the configured disturbance; tau_f and the armature I_a are the joints' friction and rotor inertia
+(sim_bridge.joint_friction; zero unless configured). The simulated robot is the given URDF, or the
+scenario's closed form with `params`, with its links changed by `params` (sim_bridge.true_robot).
+Units SI (rad, m, N m, N, s); time is kept as integer nanoseconds. Each World owns one PyBullet
+physics client (DIRECT unless gui=True).
 
 PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
 base, from a copy whose links without <inertial> have an explicit zero one (PyBullet's default
 would be 1 kg, 1 kg m^2) and whose meshes are absolute file:// URIs; default velocity motors
 disabled (VELOCITY_CONTROL, force 0); link linear/angular damping (default 0.04) and URDF joint
-damping zeroed; the torque is re-sent before every stepSimulation
-(PyBullet clears applied torques after each step); fixed step dt without substeps.
+damping zeroed (joint damping then carries friction.viscous alone); the torque is re-sent before
+every stepSimulation (PyBullet clears applied torques after each step); fixed step dt without substeps.
 """
 import math
 import os
