@@ -19,7 +19,7 @@ Discrete time, the World's semi-implicit Euler step dt (the Coulomb torque is im
 velocity motors make it; those motors' iterative solver leaves coupled joints creeping, e.g. 4.9e-4 rad
 in 1 s on the iiwa held at 0.9 F_c with default settings, hence the exact solve here):
 
-    qd+ = qd + dt A^-1 (r + f),   A = M + diag(I_a),   r = tau + tau_env - b qd - h
+    qd+ = qd + dt A^-1 (r + f),   A = M + diag(I_a),   r = tau + tau_env - b qd - h (+ tau_c, below)
     f_i = -F_c,i sign(qd+_i) where qd+_i != 0;  |f_i| <= F_c,i where qd+_i = 0
 
 a box-constrained linear complementarity problem, solved exactly by `coulomb_torque`.
@@ -33,9 +33,12 @@ How PyBullet is made to simulate it (sim_bridge.joint_physics.JointPhysics):
       tau_sent = tau + tau_env_joint + f - I_a qdd,
   for which PyBullet's own M qdd_b = tau_sent - b qd - h + J^T F gives qdd_b = qdd.
   All zero: nothing is read, computed or sent beyond the World's torque.
-Not modelled: the surface contact and the URDF joint limits are constraints PyBullet solves after
-this torque, through M alone (no rotor inertia, no friction in that impulse). While the brakes hold,
-the brakes alone act.
+Constraints: the surface contact, the URDF joint limits and the held joints are solved by PyBullet
+after this torque, through M. Their joint torque tau_c of the last step (PyBullet's M (qd - qd+) / dt
+added to the tau_c assumed then) is assumed to persist: r includes it, so the friction and the
+armature's torque follow the acceleration the constraints allow (exact while tau_c is steady, e.g.
+pressing on the surface; one step late when it changes, e.g. at impact). While the brakes hold, the
+brakes alone act.
 """
 from dataclasses import dataclass
 

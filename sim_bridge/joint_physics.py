@@ -27,13 +27,17 @@ class JointPhysics:
         self.friction = friction
         self.exact = friction.exact
         self._armature = np.diag(friction.armature)
+        self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
         for j, b in zip(self._joints, friction.viscous.tolist()):
             p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
 
-    def torque(self, forces, cartesian_force=None):
+    def torque(self, forces, cartesian_force=None, braked=False):
         """The joint torques (list of n floats) to send PyBullet for the step about to run, given `forces`
         (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
-        (3,) N or None (PyBullet applies it): see the module docstring."""
+        (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`."""
+        if braked:
+            self._last = None
+            return forces
         c, body, fr = self._client, self._body, self.friction
         states = p.getJointStates(body, self._movable, physicsClientId=c)
         q_all = [s[0] for s in states]
@@ -47,9 +51,19 @@ class JointPhysics:
         r = tau - fr.viscous * qd - h
         if cartesian_force is not None:
             r += self._jacobian(q_all, qd_all).T @ cartesian_force
+        constraint = 0.0 if self._last is None else self._constraint(qd)
+        r += constraint
         inertia = mass + self._armature
         f, v = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb)
+        self._last = (mass, v, constraint)
         return (tau + f - fr.armature * ((v - qd) / self.dt)).tolist()
+
+    def _constraint(self, qd):
+        """tau_c (n,) N m or N: the joint torque of the constraints PyBullet solved in the last step (surface
+        contact, joint limits, held joints). PyBullet's M (qd - qd+_predicted) / dt is what they added to
+        the tau_c assumed then: M qdd_b = tau_sent - h + tau_c and M qdd = tau_sent - h + tau_c,assumed."""
+        mass, predicted, assumed = self._last
+        return assumed + mass @ (qd - predicted) / self.dt
 
     def _jacobian(self, q_all, qd_all):
         """The tip frame origin's linear Jacobian (3, n), m/rad or 1, world axes: where the World applies

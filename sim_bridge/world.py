@@ -475,8 +475,9 @@ class World:
                 x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
                 tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
             forces = tau.tolist()
-        if self._joints.exact and self._brake is None:
-            forces = self._joints.torque(forces, dist.cartesian_force if dist.has_force else None)
+        if self._joints.exact:
+            force = dist.cartesian_force if dist.has_force else None
+            forces = self._joints.torque(forces, force, self._brake is not None)
         p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=forces, physicsClientId=c)
         if dist.has_force:
             p.applyExternalForce(self._body, self._tip, self._disturbance.cartesian_force.tolist(),

@@ -7,7 +7,8 @@ relative (force_1dof, single link); a free joint's velocity decays as (1 - b dt 
 within 1e-3) and PyBullet's joint damping is bit-identical to an applied -b qd; the acceleration under
 armature is (M + I_a)^-1 (tau - g) within 1e-9 relative on the iiwa, 1e-4 on every scenario (the Panda's
 held fingers: 8e-6); the Coulomb solver satisfies its complementarity conditions on random coupled
-systems; the brakes hold whatever the friction.
+systems; pressed on a surface, the contact balances the push within the Coulomb band (1e-3 N without);
+the brakes hold whatever the friction.
 """
 import numpy as np
 import pybullet as p
@@ -211,6 +212,19 @@ def test_every_scenario_sticks_and_carries_its_armature(make_world, name):
     world = make_world(name, surface=False, friction={'armature': ia})
     expected = np.linalg.solve(M_now(world) + np.diag(ia), np.ones(n))
     np.testing.assert_allclose(acceleration(world, g + 1.0), expected, rtol=1e-4, atol=1e-4 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize('friction,band', [({'viscous': [5.0], 'armature': [0.5]}, 1e-3),
+                                           ({'coulomb': [0.5], 'viscous': [5.0], 'armature': [0.5]}, 0.5)])
+def test_pressed_on_the_surface_the_contact_balances_the_push(make_world, friction, band):
+    """force_1dof pushing with u = 20 N on its wall (k_e = 1000 N/m): at rest after 6 s, the contact force is
+    u within the Coulomb band (1e-3 N without Coulomb friction). The armature's torque -I_a qdd follows the
+    acceleration the contact allows (PyBullet's constraint torque of the last step, carried into the next)."""
+    world = make_world('force_1dof', friction=friction)
+    world.set_torque([20.0])
+    world.step(6000)
+    assert abs(world.state()[1][0]) < 1e-5
+    assert abs(world.contact_wrench()[0][0] - 20.0) <= band
 
 
 def test_the_brakes_hold_whatever_the_friction_and_armature(make_world):
