@@ -71,7 +71,7 @@ def make_world(cfg):
         surface = dataclasses.replace(scenarios.get(cfg.scenario).surface, k_e=cfg.k_e, x_e=cfg.x_e)
     return World(cfg.scenario or None, gui=cfg.gui, dt=cfg.physics_step, params=cfg.sim_params or None,
                  urdf=cfg.urdf or None, joints=cfg.joints, q0=cfg.initial_positions, surface=surface,
-                 disturbance=dist, payload=cfg.payload)
+                 disturbance=dist, payload=cfg.payload, friction=cfg.friction)
 
 
 class SimBridge(ParameterNode):
@@ -150,6 +150,8 @@ class SimBridge(ParameterNode):
         old, cfg = old.config, new.config
         self.cfg = cfg
         self._loop.configure(cfg)
+        if cfg.friction != old.friction:
+            self._world.set_friction(cfg.friction)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         if cfg.diagnostics_period != old.diagnostics_period:
             self.destroy_timer(self._diag_timer)

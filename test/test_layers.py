@@ -22,8 +22,9 @@ NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'ro
          'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.core.throttle',
          'robot_control.param_table', 'robot_control.ros.controller_params', 'robot_control.ros.config_builder',
          'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.pacing',
-         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check', 'sim_bridge.sensors']
-PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.physics_check'}
+         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check',
+         'sim_bridge.joint_friction', 'sim_bridge.joint_physics', 'sim_bridge.sensors']
+PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.physics_check', 'sim_bridge.joint_physics'}
 
 
 def _exists(name):

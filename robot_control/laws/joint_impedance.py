@@ -81,7 +81,7 @@ PARAM_ROWS = (
     Row('joint_stiffness', 'double_array', (100.0,), 'joint_impedance: stiffness K per joint, N m/rad (N/m on a '
         'prismatic joint); the steady error under an unmodelled torque d is d / K', [not_empty(), custom(_PER_JOINT),
                                                                                     gt_eq(0)]),
-    Row('joint_damping_ratio', 'double', 1.0, 'joint_impedance: damping ratio zeta of the designed damping '
+    Row('joint_damping_ratio', 'double', 1.0, 'joint_impedance: damping ratio zeta, dimensionless, of the designed damping '
         'D_i = 2 zeta sqrt(K_i M_ii(q)) (M_ii: the joint-space inertia at each tick); 1 = critical', [gt_eq(0)]),
     Row('joint_damping', 'double_array', (), 'joint_impedance: explicit damping D per joint, N m s/rad (N s/m); '
         'empty = designed from joint_damping_ratio', [custom(f'empty, {_PER_JOINT}'), gt_eq(0)]),

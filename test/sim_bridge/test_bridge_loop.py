@@ -215,13 +215,14 @@ def test_defaults_validate_for_every_scenario():
         assert set(cfg.sim_params) >= set(sc.params)
 
 
-def test_every_parameter_has_a_description_and_only_the_pacing_disturbances_and_pause_at_change_at_run_time():
+def test_every_parameter_has_a_description_and_only_pacing_disturbances_friction_and_pause_at_change_at_run_time():
     rows, _ = bridge_params.TABLE.resolve(lambda row: 'iiwa' if row.name == 'scenario' else row.default)
     for row in rows:
         assert row.description and row.type in ('bool', 'integer', 'double', 'string', 'double_array', 'string_array')
     assert {row.name for row in rows if not row.read_only} == {
         'real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
-        'disturbance.cartesian_force', 'diagnostics_period', 'pause_at'}
+        'disturbance.cartesian_force', 'diagnostics_period', 'pause_at', 'friction.coulomb', 'friction.viscous',
+        'armature'}
 
 
 def test_control_period_multiple_of_physics_step():
