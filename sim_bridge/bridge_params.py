@@ -26,6 +26,7 @@ from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
 from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.validation import ArgumentError
+from sim_bridge.engines import ENGINES
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
 
@@ -135,6 +136,8 @@ def rows(values):
             'at or past it (a time already past: the next tick). Negative: never. Each new value arms it once; '
             '~/pause false resumes. Run-time changes made while paused act from the tick it paused at.'),
         _fixed('gui', 'bool', False, 'Open the PyBullet GUI (needs a display).'),
+        _fixed('engine', 'string', 'pybullet', f'Physics engine of the simulated robot, one of {list(ENGINES)}.',
+               [one_of(list(ENGINES))]),
     ]
     return out
 
@@ -172,6 +175,7 @@ class BridgeConfig:
     diagnostics_period: float
     pause_at: float
     gui: bool
+    engine: str = 'pybullet'
 
     @property
     def n(self):
@@ -230,7 +234,7 @@ def build(values):
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
         payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
         wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], pause_at=v['pause_at'],
-        gui=v['gui'])
+        gui=v['gui'], engine=v['engine'])
 
 
 def validate(values):
