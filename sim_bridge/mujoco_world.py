@@ -85,9 +85,12 @@ class MujocoWorld:
         unknown = [name for name in spec.joints if name not in names]
         if unknown:
             raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {names}')
+        if self.model.nv != len(spec.joints):
+            raise ArgumentError('joints', f'expected single-dof joints (revolute, continuous, prismatic), got {names}')
         self._qadr, self._dadr = mujoco_model.dofs(self.model, spec.joints)
         self._travel = _travel(self.model, [self.model.joint(name).id for name in spec.joints])
         self._limit = _effort_limits(xml, spec.joints)
+        self._limit_min = float(np.min(self._limit))
         self._brake_limit = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE)
         bodies = [self.model.body(b).name for b in range(self.model.nbody)]
         if spec.tip is not None and spec.tip not in bodies:
@@ -165,8 +168,10 @@ class MujocoWorld:
 
     def hold_torque(self, tau):
         """set_torque without the returned array (the bridge's call)."""
-        tau = validation.vector('tau', tau, self.n)
-        self._tau = np.clip(tau, -self._limit, self._limit)
+        tau = np.array(validation.vector('tau', tau, self.n), dtype=float)     # a copy: held until changed
+        if tau.max() > self._limit_min or tau.min() < -self._limit_min:      # most commands: nothing to clip
+            tau = np.minimum(np.maximum(tau, -self._limit), self._limit)
+        self._tau = tau
 
     def set_disturbance(self, joint_torque=None, cartesian_force=None):
         """Replace the disturbance: joint_torque (n,) N m or N, cartesian_force (3,) N in world axes at
@@ -183,7 +188,13 @@ class MujocoWorld:
         """Advance k physics steps of dt with the held torque."""
         if type(k) is not int and (isinstance(k, bool) or not isinstance(k, np.integer)) or k < 1:
             raise ArgumentError('k', f'expected a positive integer number of steps, got {k!r}')
-        m, d = self.model, self.data
+        m, d, dist = self.model, self.data, self._disturbance
+        if self._brake is None and self._spec.spring is None and not (dist.has_joint_torque or dist.has_force):
+            d.qfrc_applied[self._dadr] = self._tau   # every dof is a controlled joint's (the others are fixed)
+            for _ in range(int(k)):                  # a load that does not depend on the state: one call a step
+                mujoco.mj_step(m, d)
+                self.t_ns += self.dt_ns
+            return
         for _ in range(int(k)):
             mujoco.mj_step1(m, d)
             d.qfrc_applied[:] = 0.0
