@@ -30,6 +30,7 @@ from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
 from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.validation import ArgumentError
+from sim_bridge.engines import ENGINES
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
 from sim_bridge import joint_friction, sensors, true_robot
@@ -143,6 +144,8 @@ def rows(values):
             'at or past it (a time already past: the next tick). Negative: never. Each new value arms it once; '
             '~/pause false resumes. Run-time changes made while paused act from the tick it paused at.'),
         _fixed('gui', 'bool', False, 'Open the PyBullet GUI (needs a display).'),
+        _fixed('engine', 'string', 'pybullet', f'Physics engine of the simulated robot, one of {list(ENGINES)}.',
+               [one_of(list(ENGINES))]),
     ]
     return out
 
@@ -182,6 +185,7 @@ class BridgeConfig:
     pause_at: float
     gui: bool
     sensors: sensors.SensorModel
+    engine: str = 'pybullet'
 
     @property
     def n(self):
@@ -228,6 +232,10 @@ def build(values):
         if sc is None and np.any(v[name]):
             raise ParameterError(name, "needs a tip link to act at: a scenario's robot has one (parameter "
                                        "scenario); a custom URDF robot (scenario '') has none")
+    friction = joint_friction.from_values(v, n)
+    if v['engine'] != 'pybullet' and friction.active:
+        raise ParameterError('friction.coulomb', f"joint friction and armature are modelled on the pybullet engine "
+                                                 f"only; engine is {v['engine']!r}")
     sim_params = {k[len(SIM_PARAMS):]: value for k, value in v.items() if k.startswith(SIM_PARAMS)}
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=tuple(joints), initial_positions=np.array(v['initial_positions']),
@@ -238,10 +246,10 @@ def build(values):
         surface_enable=v['surface.enable'], k_e=v['surface.k_e'], x_e=v['surface.x_e'],
         disturbance_joint_torque=_vector(v['disturbance.joint_torque'], n),
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
-        friction=joint_friction.from_values(v, n),
+        friction=friction,
         payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
         wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], pause_at=v['pause_at'],
-        gui=v['gui'], sensors=sensors.model(v))
+        gui=v['gui'], sensors=sensors.model(v), engine=v['engine'])
 
 
 def validate(values):

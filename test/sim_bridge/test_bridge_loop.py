@@ -1,5 +1,5 @@
 """The bridge without ROS: pacing pieces and command checks (sim_bridge.pacing), the loop's decisions over a
-real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_params)."""
+real World on each engine (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_params)."""
 import array
 import dataclasses
 import math
@@ -12,9 +12,9 @@ from robot_control.models import make_model
 from robot_control.core.throttle import Throttle
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import LockstepLoop, RealtimeLoop, make_loop
+from sim_bridge.engines import ENGINES, make_world
 from sim_bridge.pacing import (REJECT_REASONS, CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard, stamp_ns)
-from sim_bridge.world import World
 
 MS = 1_000_000
 
@@ -338,14 +338,14 @@ class FakeNode:
         self.timer_restarts.append(self.now)
 
 
-@pytest.fixture
-def bridge():
-    """bridge(**parameters) -> (loop, fake node): a started loop over a polar_two_link World."""
+@pytest.fixture(params=ENGINES)
+def bridge(request):
+    """bridge(**parameters) -> (loop, fake node): a started loop over a polar_two_link World, on each engine."""
     worlds = []
 
     def make(**params):
-        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', **params))
-        worlds.append(World('polar_two_link', dt=cfg.physics_step))
+        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', engine=request.param, **params))
+        worlds.append(make_world(cfg.engine, 'polar_two_link', dt=cfg.physics_step))
         node = FakeNode(worlds[-1])
         loop = make_loop(worlds[-1], cfg, publish_state=node.publish_state, count_publishers=node.count_publishers,
                          publish_diagnostics=node.publish_diagnostics, log=node.log, clock=node.clock,
