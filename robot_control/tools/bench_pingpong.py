@@ -157,7 +157,8 @@ def parse_args(argv):
     parser.add_argument('role', choices=tuple(ROLES))
     parser.add_argument('--joints', nargs='+', required=True, help='joint names in the messages')
     parser.add_argument('--executor', choices=('single', 'events'), default='single')
-    parser.add_argument('--period', type=float, default=0.001, help='ping, tick: stamp increment (tick: also the period), s')
+    parser.add_argument('--period', type=float, default=0.001,
+                        help='ping: stamp increment; tick: the period and stamp increment, s')
     return parser.parse_args(argv)
 
 

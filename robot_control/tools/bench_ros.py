@@ -396,19 +396,21 @@ def missed_vs_floor(missed, periods, floor_missed, floor_periods):
 def bench_realtime(plan, env, log, logdir):
     """B3 metrics per run of REALTIME_RUNS, each run preceded by a run of the floor; the floor pooled, each
     run against it, and the worst of the runs as the headline keys."""
-    per, floors = {}, []
+    per, floors = {}, {}
     with Session(env, logdir) as session:
         for key, (scenario, experiment) in REALTIME_RUNS.items():
-            floors.append(session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}'))
-            log('  floor: ' + ', '.join(f'{k} {v:.4g}' for k, v in floors[-1].items()))
+            floors[key] = session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}')
+            log('  floor: ' + ', '.join(f'{k} {v:.4g}' for k, v in floors[key].items()))
             per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key)
             log(f'  {key}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[key].items()))
         warn_killed(session.killed, log)
-    return realtime_results(per, pooled(floors))
+    return realtime_results(per, floors)
 
 
-def realtime_results(per, floor):
-    """B3's keys from the metrics of each run (`per`: run -> realtime_metrics) and of the floor."""
+def realtime_results(per, floors):
+    """B3's keys from the metrics of each run and of the floor before it (`per`, `floors`: run ->
+    realtime_metrics); each run is held against the floor's runs pooled."""
+    floor = pooled(list(floors.values()))
     vs_floor = {s: missed_vs_floor(m['missed'], m['periods'], floor['missed'], floor['periods'])
                 for s, m in per.items()}
     out = {'realtime_missed_vs_floor': max(vs_floor.values()),
@@ -422,7 +424,8 @@ def realtime_results(per, floor):
            'realtime_floor_latency_p99_ms': floor['latency_p99_ms'], 'realtime_floor_rtf': floor['rtf']}
     for s, m in per.items():
         out.update({f'realtime_missed_vs_floor_{s}': vs_floor[s], f'realtime_missed_periods_{s}': m['missed'],
-                    f'realtime_periods_{s}': m['periods'], f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
+                    f'realtime_periods_{s}': m['periods'], f'realtime_floor_missed_periods_{s}': floors[s]['missed'],
+                    f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
                     f'realtime_latency_p50_ms_{s}': m['latency_p50_ms'],
                     f'realtime_latency_p99_ms_{s}': m['latency_p99_ms'], f'realtime_rtf_{s}': m['rtf']})
     return {k: float(v) for k, v in out.items()}
