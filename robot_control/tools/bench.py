@@ -62,6 +62,9 @@ for _run in REALTIME_RUNS:
     TARGETS.update({f'realtime_missed_vs_floor_{_run}': TARGETS['realtime_missed_vs_floor'],
                     f'realtime_latency_p99_ms_{_run}': TARGETS['realtime_latency_p99_ms'],
                     f'realtime_rtf_{_run}': TARGETS['realtime_rtf']})
+#: share of its periods the floor of B3 answers in time on an idle machine fit for 1 kHz; below it the summary
+#: warns that B3's absolute figures measure the machine and its load as much as the loop
+QUIET_FLOOR = 0.99
 #: what a ratio is made of, printed beside its verdict: key -> format of the results
 BESIDE = {f'law_vs_rnea_{case}': f'{{{stem}_median:.3g}} us / rnea {{pin_rnea_us_median:.3g}} us'
           for case, stem in LAWS.items()}
@@ -329,6 +332,13 @@ def summary(results):
              + (', '.join(k for k in keys if met(k, results[k])) or 'none') + '.']
     if missed:
         lines.append('Targets MISSED: ' + ', '.join(missed) + '.')
+    floor = results.get('realtime_floor_1khz_deadline_hit_ratio')
+    if floor is not None and floor < QUIET_FLOOR:
+        lines.append(f'Caution: the floor of B3 (no physics, no law) answered only {100 * floor:.1f} % of its periods '
+                     f'in time (under {100 * QUIET_FLOOR:g} %): on this machine, under its load in this run, the '
+                     'transport alone misses periods, so B3\'s absolute figures (latency, real-time factor, hit '
+                     'ratio) say as much about the machine as about the loop; missed_vs_floor compares the loop with '
+                     'the floor in the same run.')
     return lines
 
 

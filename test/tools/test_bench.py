@@ -186,6 +186,8 @@ def test_realtime_verdict_holds_each_run_to_the_pooled_floor():
     text = bench.verdict('realtime_missed_vs_floor_iiwa', out['realtime_missed_vs_floor_iiwa'], out)
     assert text == 'MISSED (<= 1.5): 31 of 2000 periods missed, floor 20 of 2000'
     assert bench.summary(out)[-1].startswith('Targets MISSED: realtime_missed_vs_floor = 1.55 (<= 1.5), ')
+    busy = realtime_results(per, {**floors, 'iiwa_hybrid': _metrics(500, 60)})      # floor: 80 of 2000 missed
+    assert bench.summary(busy)[-1].startswith('Caution: the floor of B3 (no physics, no law) answered only 96.0 %')
 
 
 def test_floor_exchange_runs_and_reports_its_counts(tmp_path):
