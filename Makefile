@@ -30,11 +30,11 @@ demo: $(STAMP)
 	$(PY) -m robot_control.demo --scenario $(SCENARIO)
 
 bench: $(STAMP)
-	$(PY) -m robot_control.tools.bench $(if $(filter 1,$(QUICK)),--quick,)
+	$(PY) -m benchmarks.bench $(if $(filter 1,$(QUICK)),--quick,)
 
 # Needs a `ros2` command on PATH (a sourced Jazzy install or the stand-in, see README); not part of `make test`.
 check-ros2: $(STAMP)
-	$(PY) -m robot_control.tools.check_ros2
+	$(PY) -m dev.check_ros2
 
 clean:
 	rm -rf $(VENV) out build install log *.egg-info

@@ -8,7 +8,7 @@ PACKAGE = 'robot_control'
 setup(
     name=PACKAGE,
     version='0.1.0',
-    packages=find_packages(exclude=['test']),
+    packages=find_packages(include=['robot_control', 'robot_control.*', 'sim_bridge', 'sim_bridge.*']),
     package_data={PACKAGE: ['urdf/*.urdf', 'ros/fastdds_profile.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),

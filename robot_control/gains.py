@@ -37,11 +37,23 @@ RULE_RESONANCE = 'omega_n <= 0.5 omega_res (the lecture: do not excite the struc
 
 
 class GainRuleError(ArgumentError):
-    """A design breaks one of the lecture's rules: `name` is the gain parameter, `rule` the rule as text."""
+    """A design breaks one of the lecture's rules: `name` is the gain parameter, `rule` the rule as text,
+    `override` the design() keyword that allows it (its reason names it as the caller's reader does)."""
 
-    def __init__(self, name, reason, rule):
+    def __init__(self, name, reason, rule, override):
         super().__init__(name, reason)
         self.rule = rule
+        self.override = override
+
+
+def keyword(override):
+    """A rule's override in the library's terms: the keyword argument of design(), allow_underdamped=True."""
+    return f'{override}=True'
+
+
+def flag(override):
+    """A rule's override in the command line's terms: --allow-underdamped."""
+    return '--' + override.replace('_', '-')
 
 
 def _gain_vector(name, value, n):
@@ -128,14 +140,16 @@ def _optional_positive(name, value):
     return None if value is None else validation.scalar(name, value, positive=True)
 
 
-def _check_rules(zeta, omega_n, omega_res, allow_underdamped, allow_resonance):
-    """Raise GainRuleError if zeta < 1 or omega_n > 0.5 omega_res, unless allowed."""
+def _check_rules(zeta, omega_n, omega_res, allow_underdamped, allow_resonance, name_override):
+    """Raise GainRuleError if zeta < 1 or omega_n > 0.5 omega_res, unless allowed; its reason names the
+    override as name_override(keyword) gives it."""
     if zeta < 1.0 and not allow_underdamped:
         raise GainRuleError('zeta', f'{zeta:g} breaks the rule {RULE_ZETA}; '
-                            'override: allow_underdamped=True (CLI --allow-underdamped)', RULE_ZETA)
+                            f'override: {name_override("allow_underdamped")}', RULE_ZETA, 'allow_underdamped')
     if omega_res is not None and omega_n > 0.5 * omega_res and not allow_resonance:
         raise GainRuleError('omega_n', f'{omega_n:g} rad/s > 0.5 * {omega_res:g} rad/s breaks the rule '
-                            f'{RULE_RESONANCE}; override: allow_resonance=True (CLI --allow-resonance)', RULE_RESONANCE)
+                            f'{RULE_RESONANCE}; override: {name_override("allow_resonance")}', RULE_RESONANCE,
+                            'allow_resonance')
 
 
 def pid_gains(zeta, omega_n):
@@ -147,12 +161,14 @@ def pid_gains(zeta, omega_n):
 
 
 def design(zeta=1.0, omega_res=None, omega_n=None, integral=False,
-           allow_underdamped=False, allow_resonance=False):
+           allow_underdamped=False, allow_resonance=False, name_override=keyword):
     """kp = w_n^2, kv = 2 zeta w_n (PD) or the PID placement of pid_gains; w_n defaults to 0.5 w_res.
 
     zeta: damping ratio (> 0; >= 1 unless allow_underdamped); omega_res, omega_n in rad/s (> 0),
     at least one given; omega_n <= 0.5 omega_res unless allow_resonance. Raises GainRuleError
-    (a ValueError) naming the broken rule; bad numbers raise ValueError naming the argument.
+    (a ValueError) naming the broken rule and its override, as name_override(keyword name) words it
+    for the caller's reader (default keyword: allow_underdamped=True; the CLI: flag); bad numbers
+    raise ValueError naming the argument.
     """
     zeta = validation.scalar('zeta', zeta, positive=True)
     omega_res = _optional_positive('omega_res', omega_res)
@@ -161,7 +177,7 @@ def design(zeta=1.0, omega_res=None, omega_n=None, integral=False,
         if omega_res is None:
             raise ArgumentError('omega_n', 'give omega_n or omega_res (then omega_n = 0.5 omega_res)')
         omega_n = 0.5 * omega_res
-    _check_rules(zeta, omega_n, omega_res, allow_underdamped, allow_resonance)
+    _check_rules(zeta, omega_n, omega_res, allow_underdamped, allow_resonance, name_override)
     if integral:
         kp, kv, ki = pid_gains(zeta, omega_n)
     else:
@@ -205,17 +221,25 @@ def _parser():
 
 
 def main(argv=None):
-    """CLI: print the design as JSON on stdout; a broken rule or bad value exits 2 with the reason on stderr."""
+    """CLI: print the design as JSON on stdout; a broken rule or bad value exits 2 with the reason on stderr,
+    naming the option (--omega-res) and a rule's override flag (--allow-underdamped)."""
     parser = _parser()
     args = parser.parse_args(argv)
+    if args.omega_n is None and args.omega_res is None:
+        return _refuse(parser, 'give --omega-n or --omega-res (then omega_n = 0.5 omega_res)')
     try:
         result = design(args.zeta, args.omega_res, args.omega_n, args.integral,
-                        args.allow_underdamped, args.allow_resonance)
-    except ValueError as exc:  # GainRuleError included: the message names the rule
-        print(f'{parser.prog}: error: {exc}', file=sys.stderr)
-        return 2
+                        args.allow_underdamped, args.allow_resonance, name_override=flag)
+    except ArgumentError as exc:  # GainRuleError included: the message names the rule
+        return _refuse(parser, f'argument {flag(exc.name)}: {exc.reason}')
     print(json.dumps(result.as_dict()))
     return 0
+
+
+def _refuse(parser, message):
+    """argparse's error line (without the usage: the options were well-formed) on stderr; exit status 2."""
+    print(f'{parser.prog}: error: {message}', file=sys.stderr)
+    return 2
 
 
 if __name__ == '__main__':

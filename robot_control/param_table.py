@@ -3,7 +3,8 @@
 In the spirit of generate_parameter_library's YAML schema, each Row is a parameter: name, type,
 default, description with units, validation rules, read-only or settable at run time. The same
 table declares the parameters on a node (robot_control.ros.param_engine), checks every start-up
-value and run-time change, and renders the README's parameter tables (markdown()).
+value and run-time change, and renders the parameter tables of docs/parameters.md (markdown()) and
+the nodes' --help listings (plain_text()).
 
 Rules (a row's `rules`, rendered in this order into the descriptor's additional_constraints):
     gt(x), gt_eq(x), lt(x), lt_eq(x)   bounds; x a number or another parameter's name (its value);
@@ -26,6 +27,7 @@ Every failure is a ParameterError, an ArgumentError whose .name is the parameter
 import dataclasses
 import math
 import operator
+import textwrap
 
 from robot_control.validation import ArgumentError
 
@@ -232,7 +234,7 @@ class Row:
 
     @property
     def constraints(self):
-        """The rules as text (the descriptor's additional_constraints, the README's bounds)."""
+        """The rules as text (the descriptor's additional_constraints, the bounds column of docs/parameters.md)."""
         texts = [r.text for r in self.rules if r.text]
         if self.inf:
             texts.append('.inf allowed')
@@ -373,10 +375,20 @@ class Table:
 
     def markdown_rows(self, **seed):
         """(name, type, default, description, bounds, set at run time) per row; defaults as the
-        stages make them under `seed` (the seeded rows themselves show their own default)."""
+        stages make them under `seed` (the seeded rows themselves show their own default). Set at
+        run time: one of SETTING's keys."""
         rows, _ = self.resolve(lambda row: seed.get(row.name, row.default), check=False)
-        return [(r.name, r.type, _yaml(r.default), r.description, r.constraints, 'no' if r.read_only else 'yes')
-                for r in rows]
+        return [(r.name, r.type, _yaml(r.default), r.description, r.constraints, _setting(r)) for r in rows]
+
+
+#: the "set at run time" column of markdown_rows() -> its words in a plain-text listing
+SETTING = {'yes': 'settable at run time', 'no': 'read-only', 'no (reported)': 'read-only, reported by the node'}
+
+
+def _setting(row):
+    if row.reported:
+        return 'no (reported)'
+    return 'no' if row.read_only else 'yes'
 
 
 HEADER = '| parameter | type | default | meaning, units | bounds | set at run time |\n|---|---|---|---|---|---|\n'
@@ -387,6 +399,19 @@ def markdown(rows):
     def cell(text):
         return str(text).replace('|', '\\|').replace('\n', ' ')
     return HEADER + ''.join('| ' + ' | '.join(cell(c) for c in row) + ' |\n' for row in rows)
+
+
+def plain_text(rows, width=100):
+    """A plain-text listing of markdown_rows() (a node's --help): per parameter the line
+    '  <name> (<type>, default <default>, settable at run time | read-only)' and under it its meaning
+    with units and its bounds, indented and wrapped at `width` columns."""
+    indent = ' ' * 6
+    lines = []
+    for name, kind, default, meaning, bounds, setting in rows:
+        lines.append(f'  {name} ({kind}, default {default}, {SETTING[setting]})')
+        text = meaning + (f' [bounds: {bounds}]' if bounds else '')
+        lines += textwrap.wrap(text, width, initial_indent=indent, subsequent_indent=indent, break_on_hyphens=False)
+    return '\n'.join(lines)
 
 
 def _yaml(v):

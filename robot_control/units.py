@@ -8,6 +8,9 @@ integer number of nanoseconds (exact) or, in the control core, a float number of
 NS_PER_S = 1_000_000_000
 #: default gravitational acceleration, m/s^2 (along world -z for URDF robots)
 GRAVITY = 9.81
+#: unit of the effort along a coordinate, by the coordinate's unit: a torque about an angle (rad),
+#: a force along a length (m)
+EFFORT_UNIT = {'rad': 'N m', 'm': 'N'}
 
 
 def stamp_ns(sec, nanosec):

@@ -25,15 +25,14 @@ Speed: robot_joint_commands is taken as serialized bytes and read by robot_contr
 decodes what that declines); joint_states and ft_sensor/wrench are preallocated serialized messages
 written from the World's state as floats. joint_states goes out before /clock and the bookkeeping.
 
-`main` spins rclpy's C++ EventsExecutor by default (`--executor single` for the Python one).
+`main` spins rclpy's C++ EventsExecutor by default (`--executor single` for the Python one); `--help`
+lists the parameters with their units and defaults; exit statuses as robot_control.ros.entry.
 """
 import dataclasses
 import sys
 import time
 
 import numpy as np
-import rclpy
-import rclpy.utilities
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
@@ -45,9 +44,8 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import SetBool, Trigger
 
 from robot_control import scenarios, units
-from robot_control.ros import cdr, conversions, spin
+from robot_control.ros import cdr, conversions, entry
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
-from robot_control.param_table import ParameterError
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DESCRIPTION_QOS, DIAGNOSTICS_QOS
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
@@ -113,6 +111,8 @@ class SimBridge(ParameterNode):
             f'{cfg.scenario or cfg.urdf}: {cfg.n} joints {list(self.joint_names)}, {cfg.mode}, physics step '
             f'{cfg.physics_step} s, control period {cfg.control_period} s'
             + ('' if cfg.lockstep else f', real-time factor {cfg.real_time_factor}'))
+        for line in self._world.report:            # the URDF's warnings, physics unlike the URDF's
+            self.get_logger().warn(line)
 
     def _make_messages(self, cfg):
         """Preallocated messages: joint_states and ft_sensor/wrench as serialized bytes (robot_control.ros.cdr,
@@ -268,24 +268,14 @@ class SimBridge(ParameterNode):
         return super().destroy_node()
 
 
-def _parse_args(argv):
-    import argparse
-    parser = argparse.ArgumentParser(
-        prog='sim_bridge_node', description='PyBullet simulation of a robot_control scenario as a ROS 2 robot.',
-        epilog='ROS arguments follow --ros-args, e.g. --ros-args --params-file config/polar_two_link.yaml '
-               '-p mode:=lockstep')
-    parser.add_argument('--executor', choices=('events', 'single'), default='events',
-                        help='rclpy executor: events (C++ EventsExecutor, fastest; default) or single '
-                             '(SingleThreadedExecutor)')
-    return parser.parse_args(argv)
+ENTRY = entry.Entry('sim_bridge_node', 'PyBullet simulation of a robot_control scenario as a ROS 2 robot.', SimBridge,
+                    bridge_params.TABLE, example='--params-file config/polar_two_link.yaml -p mode:=lockstep')
 
 
 def main(args=None):
-    """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`; returns the exit code."""
-    argv = sys.argv if args is None else args
-    opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    return spin.run_node(argv, SimBridge, opts.executor, startup_errors=(ParameterError,),
-                         startup_message='bad parameter:', startup_code=2)
+    """Entry point of `sim_bridge_node` and `python -m sim_bridge.bridge_node`: spin until Ctrl-C / SIGTERM
+    (exit 0); 2 on a bad parameter (robot_control.ros.entry)."""
+    return ENTRY.main(args)
 
 
 if __name__ == '__main__':

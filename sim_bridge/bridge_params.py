@@ -24,14 +24,13 @@ import numpy as np
 
 from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
+from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.validation import ArgumentError
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
 
 MODES = ('realtime', 'lockstep')
 SIM_PARAMS = 'sim_params.'
-#: physical parameters that may be zero (no friction, no spring, no gravity); the others must be positive
-MAY_BE_ZERO = ('gravity', 'b', 'k')
 
 
 def _scenario(name):
@@ -120,7 +119,7 @@ def rows(values):
     ]
     for key, value in sorted((sc.params if sc else {}).items()):
         out.append(_fixed(f'{SIM_PARAMS}{key}', 'double', float(value),
-                          f'Simulated robot physical parameter {key!r} (SI); differ from the '
+                          f'Simulated robot physical parameter {key!r}, {PARAMETER_UNITS[key]}; differ from the '
                           "controller's model for a model-error payload.",
                           [gt_eq(0) if key in MAY_BE_ZERO else gt(0)]))
     if sc is None or sc.model == 'urdf':
@@ -215,6 +214,10 @@ def build(values):
             raise ParameterError('surface.enable', f'scenario {scenario!r} has no surface')
         if not v['surface.k_e'] > 0.0:
             raise ParameterError('surface.k_e', f'expected a positive stiffness (N/m), got {v["surface.k_e"]}')
+    for name in ('payload.mass', 'disturbance.cartesian_force'):
+        if sc is None and np.any(v[name]):
+            raise ParameterError(name, "needs a tip link to act at: a scenario's robot has one (parameter "
+                                       "scenario); a custom URDF robot (scenario '') has none")
     sim_params = {k[len(SIM_PARAMS):]: value for k, value in v.items() if k.startswith(SIM_PARAMS)}
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=tuple(joints), initial_positions=np.array(v['initial_positions']),

@@ -7,8 +7,10 @@ and the configured disturbance. Units SI (rad, m, N m, N, s); time is kept as in
 nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True).
 
 PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
-base; default velocity motors disabled (VELOCITY_CONTROL, force 0); link linear/angular damping
-(default 0.04) and URDF joint damping zeroed; the torque is re-sent before every stepSimulation
+base, from a copy whose links without <inertial> have an explicit zero one (PyBullet's default
+would be 1 kg, 1 kg m^2) and whose meshes are absolute file:// URIs; default velocity motors
+disabled (VELOCITY_CONTROL, force 0); link linear/angular damping (default 0.04) and URDF joint
+damping zeroed; the torque is re-sent before every stepSimulation
 (PyBullet clears applied torques after each step); fixed step dt without substeps.
 """
 import math
@@ -23,8 +25,9 @@ import pybullet as p
 from robot_control.validation import ArgumentError
 from robot_control import scenarios, units, validation
 from robot_control import urdf as urdf_files
+from robot_control.urdf import checks
 from robot_control.models import make_model, urdf_gen
-from sim_bridge import surfaces
+from sim_bridge import physics_check, surfaces
 from sim_bridge.disturbance import Disturbance
 
 #: world gravity when neither the scenario nor `params` sets one, m/s^2
@@ -46,6 +49,7 @@ class _Spec:
     surface: object           # scenarios.Surface or None
     surface_damping: float    # N s/m
     spring: tuple             # (k N/m^3, b N s/m) of mass_spring_cubic, or None
+    warnings: list            # robot_control.urdf.checks.check's warnings about the URDF
 
 
 def _scenario(scenario):
@@ -84,6 +88,20 @@ def _surface(sc, surface):
     return surfaces.check_surface(surface)
 
 
+def _simulated_copy(path, tmpdir):
+    """(copy of the URDF at `path` as PyBullet must load it, the URDF's warnings): checked
+    (robot_control.urdf.checks.check), its meshes found (absolute file:// URIs; ArgumentError naming
+    `urdf` for one found nowhere) and an explicit zero <inertial> for every link without one, so
+    that PyBullet simulates such a link massless, as the URDF (and the controller's model) means."""
+    xml, where = urdf_files.read(path)
+    warnings = checks.check(xml, where)
+    xml = urdf_files.with_absolute_meshes(xml, os.path.dirname(os.path.abspath(path)))
+    out = os.path.join(tmpdir, 'simulated.urdf')
+    with open(out, 'w', encoding='utf-8') as f:
+        f.write(checks.with_zero_inertials(xml))
+    return out, warnings
+
+
 def _with_payload(path, tip, payload, tmpdir):
     """A copy of the URDF at `path` whose tip carries the payload (robot_control.urdf.with_payload)."""
     if tip is None:
@@ -108,6 +126,7 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payloa
         path = urdf_gen.write_urdf(os.path.join(tmpdir, f'{sc.model}.urdf'), sc.model, **truth)
     else:
         path = urdf_files.resolve(sc.urdf or sc.model)
+    path, warnings = _simulated_copy(path, tmpdir)
     if joints is None and sc is None:
         raise ArgumentError('joints', 'required when scenario is None')
     joints = validation.names('joints', sc.joints if joints is None else joints)
@@ -127,7 +146,7 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payloa
         path = _with_payload(path, tip, payload, tmpdir)
     spring = (model.k, model.b) if closed_form and sc.model == 'mass_spring_cubic' else None
     damping = validation.scalar('surface_damping', surface_damping, nonnegative=True)
-    return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring)
+    return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring, warnings)
 
 
 def _whole_ns(dt):
@@ -154,6 +173,14 @@ def _hold(client, body, joints):
                                     forces=[UNLIMITED_BRAKE] * k, physicsClientId=client)
 
 
+def _check_travel(joints, q0, travel):
+    """q0 inside the URDF position limits `travel` ((lower, upper) per joint; PyBullet enforces them
+    where lower <= upper), or ArgumentError naming q0."""
+    for name, q, (lower, upper) in zip(joints, q0, travel):
+        if lower <= upper and not lower <= q <= upper:
+            raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
+
+
 class World:
     """A PyBullet world stepping one robot under a held joint torque.
 
@@ -166,6 +193,8 @@ class World:
     surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.
     payload: None or (mass kg, com (3,) m in the tip link's frame): robot_control.urdf.with_payload.
     disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
+    report: the start-up report, a list of strings: the URDF's warnings and where PyBullet's physics at the
+      start state differs from Pinocchio's on the same URDF (sim_bridge.physics_check.report).
     """
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
@@ -183,6 +212,9 @@ class World:
             if self._client < 0:
                 raise RuntimeError('pybullet: cannot connect a physics client')
             self._build(self._spec.q0)
+            with open(self._spec.urdf, encoding='utf-8') as f:
+                self.report = self._spec.warnings + physics_check.report(self._client, self._body, f.read(),
+                                                                         self._spec.gravity)
         except BaseException:
             self.close()
             raise
@@ -205,7 +237,8 @@ class World:
 
     @property
     def urdf(self):
-        """Path of the URDF file the simulated robot was loaded from (generated for closed forms)."""
+        """Path of the URDF file the simulated robot was loaded from: the checked copy of the given or
+        generated URDF (absolute file:// meshes, explicit zero <inertial>s, probe and payload if any)."""
         return self._spec.urdf
 
     @property
@@ -261,7 +294,7 @@ class World:
         _hold(c, self._body, self._others)
         p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
                                     physicsClientId=c)
-        self._check_travel(q0)
+        _check_travel(self._spec.joints, q0, self._travel)
         for i, q in zip(self._idx, q0):
             p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
         self._wall = self._make_wall() if spec.surface is not None else None
@@ -295,12 +328,6 @@ class World:
             raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
         self._tip = links.get(tip) if tip is not None else None
 
-    def _check_travel(self, q0):
-        """q0 inside the URDF position limits (PyBullet enforces them: lower <= upper), or ValueError."""
-        for name, q, (lower, upper) in zip(self._spec.joints, q0, self._travel):
-            if lower <= upper and not lower <= q <= upper:
-                raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
-
     def _make_wall(self):
         spec = self._spec
         normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
@@ -319,7 +346,7 @@ class World:
         """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
         zero torque, brakes off. The disturbance in force is kept. Same inputs -> bit-identical run."""
         q0 = self._spec.q0 if q0 is None else validation.vector('q0', q0, self.n)
-        self._check_travel(q0)          # before tearing the old world down
+        _check_travel(self._spec.joints, q0, self._travel)          # before tearing the old world down
         self._build(q0)
 
     def close(self):

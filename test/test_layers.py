@@ -17,13 +17,13 @@ import pytest
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: the rclpy-free layers: the library, the control core, the simulated world and the bridge's loop
 #: (whole subpackages), plus the named modules beside them (the parameter tables among them)
-PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core']
+PACKAGES = ['robot_control.models', 'robot_control.laws', 'robot_control.core', 'robot_control.urdf']
 NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'robot_control.trajectory',
          'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.core.throttle',
          'robot_control.param_table', 'robot_control.ros.controller_params', 'robot_control.ros.config_builder',
          'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.pacing',
-         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params']
-PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces'}
+         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check']
+PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.physics_check'}
 
 
 def _exists(name):

@@ -292,3 +292,9 @@ CLOSED_FORM = {
     'cartesian_xy': CartesianXY,
     'cartesian_xyz': CartesianXYZ,
 }
+
+#: unit of each physical parameter of the closed-form models (their constructors' arguments, SI)
+PARAMETER_UNITS = {'m': 'kg', 'm1': 'kg', 'm2': 'kg', 'm3': 'kg', 'l': 'm', 'l1': 'm', 'l2': 'm',
+                   'b': 'N s/m (viscous friction)', 'k': 'N/m^3 (cubic spring)', 'gravity': 'm/s^2'}
+#: the physical parameters that may be zero (no friction, no spring, no gravity); the others are positive
+MAY_BE_ZERO = ('b', 'k', 'gravity')

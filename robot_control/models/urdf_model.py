@@ -9,7 +9,6 @@ which JointMap fills in. Task space: the 3-D position of frame `tip` in the worl
 Jdot qd are expressed in LOCAL_WORLD_ALIGNED axes (world axes at the tip point).
 Units SI; gravity is a world vector, default (0, 0, -9.81) m/s^2.
 """
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
 import numpy as np
@@ -17,6 +16,7 @@ import pinocchio as pin
 
 from robot_control import units, validation
 from robot_control import urdf as urdf_files
+from robot_control.urdf import checks
 from robot_control.models.base import TASK_SPACES, RobotModel
 from robot_control.validation import ArgumentError
 
@@ -30,27 +30,24 @@ resolve_urdf = urdf_files.resolve
 
 
 def _parse(xml, where):
-    """Pinocchio model of URDF text; ArgumentError naming `urdf` on anything malformed."""
-    try:
-        root = ET.fromstring(xml.lstrip())   # urdfdom, like PyBullet, allows blank lines before <?xml ...?>
-    except ET.ParseError as exc:
-        raise ArgumentError('urdf', f'{where} is not well-formed XML: {exc}') from None
-    if root.tag != 'robot':
-        raise ArgumentError('urdf', f'{where} has root element <{root.tag}>, expected <robot>')
+    """(Pinocchio model of URDF text, the URDF's warnings); ArgumentError naming `urdf` on anything
+    malformed (robot_control.urdf.checks.check, then urdfdom's own errors)."""
+    warnings = checks.check(xml, where)
     try:
         model = pin.buildModelFromXML(xml)
     except (ValueError, RuntimeError) as exc:
         raise ArgumentError('urdf', f'{where} is not a valid URDF: {exc}') from None
     _rename_joint_frames(model)
-    return model
+    return model, warnings
 
 
 def _rename_joint_frames(model):
     """Rename the frame of a joint that shares its link's name to '<name> (joint)', in place.
 
-    URDF keeps link and joint names apart (minitaur has a fixed joint named like a link), but
-    Pinocchio's buildReducedModel looks frames up by name alone and fails on such a pair. Joints
-    keep their names (model.names); only the joint's frame is renamed, the link's stays.
+    URDF keeps link and joint names apart (minitaur has a fixed joint named like a link; the SO-100
+    a movable joint 'gripper' beside its link 'gripper'), but Pinocchio's lookups by name alone fail
+    on such a pair. Joints keep their names (model.names; _reduced renames the locked ones for
+    buildReducedModel); only the joint's frame is renamed, the link's stays.
     """
     joint_types = (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT)
     for i, frame in enumerate(model.frames):
@@ -142,8 +139,9 @@ class UrdfModel(RobotModel):
             if tip is None:
                 raise ArgumentError('payload', 'a payload needs the tip that carries it')
             xml = urdf_files.with_payload(xml, tip, *payload)
-        full = _parse(xml, where)
+        full, warnings = _parse(xml, where)
         self.source = where                  # file path, or 'URDF XML string'
+        self.urdf_warnings = tuple(warnings)  # robot_control.urdf.checks.check's warnings
         movable = tuple(full.names[1:])
         joints = _selected(full, movable, joints)
         q_ref = _reference(full, movable, joints, q_locked)
@@ -379,11 +377,15 @@ def _reference(full, movable, joints, q_locked):
 
 def _reduced(full, locked, q_ref):
     """The model with the joints named `locked` fixed at q_ref (pin.buildReducedModel); ArgumentError
-    naming `joints` (the selection decides what is locked) when Pinocchio cannot build it."""
+    naming `joints` (the selection decides what is locked) when Pinocchio cannot build it. The locked
+    joints of `full` are renamed after their frames (_rename_joint_frames) in place."""
     if not locked:
         return full
+    ids = [full.getJointId(name) for name in locked]
+    for i in ids:       # buildReducedModel finds a locked joint's frame by the joint's name
+        full.names[i] = next(f.name for f in full.frames if f.parentJoint == i and f.type == pin.FrameType.JOINT)
     try:
-        return pin.buildReducedModel(full, [full.getJointId(name) for name in locked], q_ref)
+        return pin.buildReducedModel(full, ids, q_ref)
     except (ValueError, RuntimeError) as exc:
         raise ArgumentError('joints', f'Pinocchio cannot lock the unselected joints {locked}: {exc}; '
                                       'select them too') from None

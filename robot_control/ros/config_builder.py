@@ -22,6 +22,11 @@ from robot_control.validation import ArgumentError
 MODEL_PARAMS = 'model_params.'
 
 
+def as_parameter(override):
+    """A gain rule's override in the node's terms: the parameter that allows it (allow_underdamped)."""
+    return f'set the parameter {override}: true'
+
+
 def servo_gains(values, prefix, n, design, scale=None):
     """ServoGains (n,): each of {prefix}kp, kv, ki explicit (n values) or, when empty, designed.
 
@@ -52,7 +57,7 @@ def joint_inertia(model, q0):
     diag = np.diag(model.M(q)).copy()
     if not np.all(diag > 0.0):
         raise ParameterError('kp', f'independent_joint designs kp = omega_n^2 M_ii(q0) but M_ii(q0) = '
-                                   f'{diag.tolist()} at q0 = {q.tolist()}; give kp and kv explicitly')
+                                   f'{diag.tolist()} at q0 = {q.tolist()}; set the parameters kp and kv')
     return diag
 
 
@@ -87,7 +92,8 @@ class ConfigBuilder:
     def __call__(self, values):
         model = self.model(values)
         design = gain_design.design(values['zeta'], values['omega_res'], values['omega_n'] or None,
-                                    integral=values['integral'])
+                                    integral=values['integral'], allow_underdamped=values['allow_underdamped'],
+                                    allow_resonance=values['allow_resonance'], name_override=as_parameter)
         scenario = values['scenario']
         q0 = scenarios.get(scenario).q0 if scenario else None
         motion = motion_gains(values, model, design, q0)

@@ -41,7 +41,7 @@ from the current state (the reference holds where the robot is: no torque jump);
 commanding (the robot's driver then falls back on its command timeout: the simulation bridge
 engages its brakes in realtime mode and waits in lockstep mode); cleanup and shutdown release
 everything. With autostart (default true) the node configures and activates itself, so `ros2 run`
-starts a controller; invalid parameters then end the process with code 1.
+starts a controller; a bad parameter then ends the process with status 2 (robot_control.ros.entry).
 
 Parameters: the table robot_control.ros.controller_params, declared and checked by the parameter engine
 (robot_control.ros.param_engine; a refusal's reason names the parameter), built into a
@@ -49,14 +49,14 @@ ControllerConfig by robot_control.ros.config_builder; a run-time change is appli
 the core's configuration. A start-up parameter the controller does not have is refused.
 
 Run: python -m robot_control.ros.controller_node --ros-args --params-file config/polar_two_link.yaml
+(--help lists the parameters with their units and defaults.)
 """
 import sys
 
-import rclpy
 from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
 from std_msgs.msg import String
 
-from robot_control.ros import controller_params as params, spin
+from robot_control.ros import controller_params as params, entry
 from robot_control.ros.config_builder import ConfigBuilder
 from robot_control.ros.controller_session import ControllerSession
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
@@ -149,7 +149,7 @@ class ControllerNode(ParameterNode, LifecycleNode):
             try:
                 self._start()
             except ParameterError as exc:
-                self.get_logger().error(f'invalid parameter {exc}')
+                self.get_logger().error(entry.bad_parameter(exc))
 
     # -- lifecycle -------------------------------------------------------------------------------------
     def _start(self):
@@ -210,22 +210,14 @@ class ControllerNode(ParameterNode, LifecycleNode):
         self.get_logger().info(f'parameters set: {sorted(changed)}')
 
 
-def _parse_args(argv):
-    import argparse
-    parser = argparse.ArgumentParser(prog='controller_node', description='robot_control controller node.',
-                                     epilog='ROS arguments follow --ros-args, e.g. --ros-args --params-file '
-                                            'config/polar_two_link.yaml')
-    parser.add_argument('--executor', choices=spin.EXECUTORS, default='events',
-                        help='rclpy executor: events (EventsExecutor, default) or single (SingleThreadedExecutor)')
-    return parser.parse_args(argv)
+ENTRY = entry.Entry('controller_node', 'robot_control controller node.', ControllerNode, params.TABLE,
+                    example='--params-file config/polar_two_link.yaml')
 
 
 def main(args=None):
-    """Entry point: spin the controller until Ctrl-C / SIGTERM (exit 0); 1 on invalid parameters."""
-    argv = sys.argv if args is None else args
-    opts = _parse_args(rclpy.utilities.remove_ros_args(argv)[1:])
-    return spin.run_node(argv, ControllerNode, opts.executor, startup_errors=(ParameterError,),
-                         startup_message='invalid parameter', startup_code=1)
+    """Entry point: spin the controller until Ctrl-C / SIGTERM (exit 0); 2 on a bad parameter
+    (robot_control.ros.entry)."""
+    return ENTRY.main(args)
 
 
 if __name__ == '__main__':

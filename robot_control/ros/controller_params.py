@@ -20,14 +20,10 @@ from robot_control import urdf as urdf_files
 from robot_control.core.config import FORCE_FEEDBACK
 from robot_control.laws import LAWS
 from robot_control.models import CLOSED_FORM
+from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, one_of, size,  # noqa: F401
                                            subset_of, unique)
 
-#: units of the closed-form models' arguments (model_params.* descriptions)
-UNITS = {'m': 'kg', 'm1': 'kg', 'm2': 'kg', 'm3': 'kg', 'l': 'm', 'l1': 'm', 'l2': 'm',
-         'b': 'N s/m (viscous friction)', 'k': 'N/m^3 (cubic spring)', 'gravity': 'm/s^2'}
-#: model arguments that may be zero (no friction, no spring, no gravity); the others must be positive
-MAY_BE_ZERO = ('b', 'k', 'gravity')
 DEFAULT_MODEL = 'polar_two_link'
 
 
@@ -69,7 +65,7 @@ def model_param_rows(model, defaults):
         if p.name == 'self':
             continue
         rows.append(Row(f'model_params.{p.name}', 'double', float(defaults.get(p.name, p.default)),
-                        f'{model} model parameter {p.name}, {UNITS.get(p.name, "SI")}',
+                        f'{model} model parameter {p.name}, {PARAMETER_UNITS[p.name]}',
                         [gt_eq(0) if p.name in MAY_BE_ZERO else gt(0)], aliases=(p.name,)))
     return rows
 
@@ -132,10 +128,14 @@ def servo_rows():
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
         Row('zeta', 'double', 1.0, 'designed damping ratio, dimensionless',
-            [custom('>= 1 (no underdamping)')]),
+            [gt(0), custom('>= 1 (no underdamping) unless allow_underdamped')]),
+        Row('allow_underdamped', 'bool', False, 'allow a designed zeta < 1 (an underdamped, oscillating '
+            'response, which the lecture rules out for safety)'),
         Row('omega_res', 'double', 12.0, 'lowest structural resonance, rad/s', [gt(0)]),
         Row('omega_n', 'double', 0.0, 'designed natural frequency, rad/s; 0 = 0.5 omega_res',
-            [gt_eq(0), custom('<= 0.5 omega_res')]),
+            [gt_eq(0), custom('<= 0.5 omega_res unless allow_resonance')]),
+        Row('allow_resonance', 'bool', False, 'allow a designed omega_n > 0.5 omega_res (a servo fast enough '
+            'to excite the structural resonance)'),
         Row('kp', 'double_array', (), 'explicit Kp diagonal (empty = designed): 1/s^2 (computed torque, hybrid '
             'motion axes) or N m/rad, N/m (independent_joint)', gains),
         Row('kv', 'double_array', (), 'explicit Kv diagonal (empty = designed): 1/s or N m s/rad, N s/m',
@@ -209,8 +209,9 @@ def impedance_rows():
         Row('cartesian_stiffness', 'double_array', (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0),
             'impedance: stiffness K along x, y, z (N/m) and about rx, ry, rz (N m/rad); the task axes take theirs',
             [size(6, 'pose axis'), gt_eq(0)]),
-        Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio of the designed damping '
-            'D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); 1 = critical',
+        Row('cartesian_damping_ratio', 'double', 1.0, 'impedance: damping ratio, dimensionless, of the designed '
+            'damping D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2) (Lambda: the operational-space inertia); '
+            '1 = critical',
             [gt_eq(0)]),
         Row('cartesian_damping', 'double_array', (), 'impedance: explicit damping along x, y, z (N s/m) and '
             'rx, ry, rz (N m s/rad); empty = designed from cartesian_damping_ratio',

@@ -53,14 +53,14 @@ def spin(executor, context=None, stop=None):
         executor.spin_once(SPIN_PERIOD)
 
 
-def run_node(argv, make_node, executor='events', startup_errors=(), startup_message='bad parameter',
-             startup_code=2):
+def run_node(argv, make_node, executor='events', startup_errors=(), on_startup_error=None):
     """The body of every main(): DDS settings, init, build the node, spin until SIGINT/SIGTERM, clean up.
 
     The Fast DDS settings of robot_control.ros.dds go into the environment first (where it does not
     set them already): a network link that fails never blocks the node's publishing. make_node()
-    builds the node; an exception of `startup_errors` (invalid parameters) is logged as
-    '<startup_message> <error>' at FATAL and returns `startup_code`. Returns 0 after a signal.
+    builds the node; an exception of `startup_errors` (invalid parameters) raised there is handed to
+    on_startup_error(exc), whose return is returned (the exit status; robot_control.ros.entry).
+    Returns 0 after a signal.
     """
     dds.apply_defaults()
     stop = init_with_stop_on_signals(argv)
@@ -70,8 +70,7 @@ def run_node(argv, make_node, executor='events', startup_errors=(), startup_mess
         try:
             node = make_node()
         except startup_errors as exc:
-            rclpy.logging.get_logger('main').fatal(f'{startup_message} {exc}')
-            return startup_code
+            return on_startup_error(exc)
         ex.add_node(node)
         spin(ex, stop=stop)
     except ExternalShutdownException:

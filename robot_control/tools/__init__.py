@@ -1,1 +1,1 @@
-"""Tools around the package: the demo, benchmarks, the rosbag2 recorder, plots, README generators."""
+"""The user tools: the demo, the rosbag2 recorder, the tracking plot (benchmarks and checks live outside the package)."""

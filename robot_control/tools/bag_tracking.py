@@ -27,6 +27,9 @@ without one); a task-space law plots its motion axes (q = x_d - e), a 1-DOF forc
 with no position reference; force axes (from /diagnostics) get the measured force and f_d. The
 joints plotted are the reference's (joint laws), else the commands', else joint_states'. Units:
 from the URDF on robot_description, else the shipped scenario with these joint names, else rad.
+A signal the bag lacks stays NaN, so the figure leaves it out (a bag of joint_states and commands
+plots positions and commanded efforts only); 'sources' names the topic of each signal it has, for
+the legends, and 'tau_kind' says whether tau is the applied or the commanded effort.
 """
 import math
 import xml.etree.ElementTree as ET
@@ -36,7 +39,7 @@ import numpy as np
 
 from robot_control import scenarios
 from robot_control.tools.demo_metrics import task_units
-from robot_control.tools.plot import EFFORT_UNIT
+from robot_control.units import EFFORT_UNIT
 
 __all__ = ['tracking_data', 'BagError']
 
@@ -242,12 +245,15 @@ def _joints(bag, ref, joint_law):
 
 
 def _effort(bag, joints):
-    """Applied effort from joint_states, else the commanded effort of robot_joint_commands."""
+    """(tau, 'applied' or 'commanded', its topic or None): the applied effort from joint_states,
+    else the commanded effort of robot_joint_commands, else NaN."""
     tau = bag.states.by_name('effort', joints)
     if np.isfinite(tau).any():
-        return tau
+        return tau, 'applied', bag.name('joint_states')
     cmds = bag.series(bag.topic('robot_joint_commands', JOINT_STATE))
-    return cmds.by_name('effort', joints) if cmds is not None else tau
+    if cmds is None:
+        return tau, 'applied', None
+    return cmds.by_name('effort', joints), 'commanded', bag.name('robot_joint_commands')
 
 
 def tracking_data(bag, namespace=None):
@@ -264,9 +270,13 @@ def tracking_data(bag, namespace=None):
     units = _joint_units(joints, b.topic('robot_description', 'std_msgs/msg/String'))
     q = b.states.by_name('position', joints)
     nan = np.full_like(q, np.nan)
+    tau, tau_kind, tau_topic = _effort(b, joints)
+    sources = {'q': b.name('joint_states'), 'q_d': b.reference if ref is not None else None,
+               'e': b.error if err is not None else None, 'tau': tau_topic}
     out = {'scenario': _scenario_name(joints, bag_dir), 't': (b.base_ns - b.base_ns[0]) * 1e-9,
            'title': ', '.join(x for x in (law, f'bag {Path(bag_dir).name}') if x),
-           'tau': _effort(b, joints), 'tau_names': joints, 'tau_units': [EFFORT_UNIT[u] for u in units]}
+           'tau': tau, 'tau_kind': tau_kind, 'tau_names': joints, 'tau_units': [EFFORT_UNIT[u] for u in units],
+           'sources': sources}
     if limits:
         out['effort_limit'] = [limits.get(j, np.inf) for j in joints]
     motion = [a for a in ref.first().name if a not in force_axes] if ref is not None and not joint_law else []
@@ -278,6 +288,7 @@ def tracking_data(bag, namespace=None):
         x_d = ref.by_name('position', motion)
         e = err.by_name('position', motion) if err is not None else np.full_like(x_d, np.nan)
         out.update(joint_names=motion, units=list(task_units(motion)), q=x_d - e, q_d=x_d, e=e)
+        sources['q'] = f'{b.reference} \u2212 {b.error}' if err is not None else None
     else:  # a force law on a 1-DOF robot: its position, no position reference
         out.update(joint_names=joints, units=units, q=q, q_d=nan, e=nan)
     wrench = b.series(b.topic('ft_sensor/wrench', 'geometry_msgs/msg/WrenchStamped'))
@@ -286,4 +297,5 @@ def tracking_data(bag, namespace=None):
         out['f'] = wrench.column(lambda m: [getattr(m.wrench.force, a) for a in axes], len(axes))
         out['f_d'] = ref.by_name('position', axes) if ref is not None else None
         out['force_names'] = axes
+        sources.update(f=b.name('ft_sensor/wrench'), f_d=b.reference if ref is not None else None)
     return out

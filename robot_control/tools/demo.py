@@ -3,7 +3,7 @@
     python -m robot_control.demo --scenario polar_two_link          # what `make demo` runs
     python -m robot_control.demo --scenario iiwa --mode realtime --duration 5
     python -m robot_control.demo --experiment disturbance_pid --no-plot
-    python -m robot_control.demo --all                               # every experiment, for the README table
+    python -m robot_control.demo --all                               # every experiment, for docs/results.md
 
 A run starts two OS processes, `sim_bridge_node` (PyBullet: the robot) and `controller_node`,
 each with `--ros-args --params-file config/<scenario>.yaml` plus the experiment's overrides, on a
@@ -43,7 +43,7 @@ from robot_control import scenarios, units
 from robot_control.laws import LAWS
 from robot_control.tools import demo_experiments as experiments
 from robot_control.tools import demo_metrics
-from robot_control.tools import demo_procs as procs
+from robot_control.tools import processes as procs
 
 NS = units.NS_PER_S
 ROOT = Path(__file__).resolve().parents[2]
@@ -522,7 +522,7 @@ def write_outputs(out_dir, summary, data, experiment, plot_title=None):
 
 
 def interrupted(exc):
-    """The KeyboardInterrupt (Ctrl-C, or SIGTERM/SIGHUP via demo_procs) behind `exc`, or None.
+    """The KeyboardInterrupt (Ctrl-C, or SIGTERM/SIGHUP via robot_control.tools.processes) behind `exc`, or None.
 
     A signal can arrive inside a C extension (e.g. rclpy's deserializer), which re-raises it as
     another exception caused by the KeyboardInterrupt: follow the cause/context chain.

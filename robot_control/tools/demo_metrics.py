@@ -28,6 +28,7 @@ Definitions (per coordinate, e = reference - actual as the controller publishes 
 import numpy as np
 
 from robot_control.laws import LAWS
+from robot_control.units import EFFORT_UNIT
 
 SETTLING_BAND = 0.02
 
@@ -317,7 +318,7 @@ def plot_data(data, experiment, title=''):
     mi = data.motion_index
     out = {'scenario': experiment.scenario, 't': data.t, 'title': title or experiment.name,
            'tau': data.tau_applied, 'tau_names': list(data.joints),
-           'tau_units': ['N m' if u == 'rad' else 'N' for u in data.joint_units]}
+           'tau_units': [EFFORT_UNIT[u] for u in data.joint_units]}
     if data.effort_limit is not None:
         out['effort_limit'] = data.effort_limit
     if joint_space(data.law):

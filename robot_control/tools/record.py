@@ -1,25 +1,18 @@
-"""rosbag2 recorder (raw rclpy subscriptions + the `rosbags` writer) and a bag reader for analysis.
+"""rosbag2 recorder (raw rclpy subscriptions written by the `rosbags` writer) and a bag reader.
 
-What it writes: a rosbag2 directory, `<bag_dir>/metadata.yaml` + `<bag_dir>/<name>.mcap`, metadata
-version 9 and storage `mcap` -- what `ros2 bag record` writes by default on Jazzy -- so the bag is
-read by `ros2 bag info/play` on a real install, by `rosbags`, and by Foxglove. Every topic carries
-its type name (`sensor_msgs/msg/JointState`), its full message definition (`ros2msg` schema in the
-mcap file, so the bag is self-describing), its RIHS01 type hash (checked against the hash the
-publishers announce on the graph) and the QoS profiles its publishers offered (for `ros2 bag play`;
-a topic recorded by explicit type before any publisher appeared gets its connection, and those of
-the publishers then matched, with its first message). metadata.yaml is written as rosbag2 on Jazzy
-writes it: `ros_distro: jazzy`, rosbag2's key order, offered_qos_profiles as a list of profiles with
-policy names (finish_metadata).
+What it writes is what rosbags' Writer writes: a rosbag2 directory, `<bag_dir>/metadata.yaml` +
+`<bag_dir>/<name>.mcap`, metadata version 9 and storage `mcap` (Jazzy's defaults), read by
+`ros2 bag info/play`, by rosbags and by Foxglove. Each topic carries its type name
+(`sensor_msgs/msg/JointState`), its full message definition (in the mcap file: the bag describes
+itself), its RIHS01 type hash and the QoS profiles its publishers offered when its first message
+came (what `ros2 bag play` offers again).
 
 Timestamps: each message is stamped with its *receive time*, `node.get_clock().now()` in integer
-nanoseconds, taken in the subscription callback -- as `ros2 bag record` does. With
-`use_sim_time:=true` on the recorder node that is simulation time (/clock), otherwise wall time.
-Header stamps are untouched inside the messages.
+nanoseconds, taken in the subscription callback, as `ros2 bag record` does (simulation time with
+`use_sim_time:=true` on the node, else wall time). Header stamps inside the messages are untouched.
 
-Cost in the executor: subscriptions are `raw=True`, so a callback receives the serialized CDR bytes
-(no deserialization) and only appends `(topic, t_ns, bytes)` to a queue; a writer thread drains
-the queue into the bag, so the executor never waits on disk. The command line spins rclpy's
-EventsExecutor, which hands each message from C++ to the callback.
+Subscriptions are `raw=True`: the callback hands the serialized CDR bytes to the writer as they
+came (about 4 us a message; rosbags' mcap writer buffers chunks in memory).
 
 Library use (the node is spun by the caller's executor)::
 
@@ -34,32 +27,26 @@ is always closed; prints each topic's matched publishers, then the message count
 """
 import argparse
 import atexit
-import collections
 import importlib
 import math
 import os
 import re
 import shutil
-import signal
 import sys
 import threading
 import time
 from pathlib import Path
 
-from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+from rosbags.interfaces import Nodetype, Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
-from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from robot_control.tools.taps import WithMessageInfo, spin_for, spin_until_idle
 
-BAG_VERSION = 9  # rosbag2 metadata version written by Jazzy (0.26.x)
-ROS_DISTRO = 'jazzy'  # metadata.yaml's ros_distro, as rosbag2 writes it (its ROS_DISTRO)
-STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
-DEFAULT_STORAGE = 'mcap'  # Jazzy's default storage plugin
+BAG_VERSION = 9  # rosbag2 metadata version written by Jazzy
 
-__all__ = ['Recorder', 'read_bag', 'bag_info', 'parse_topic', 'normalize_type', 'main']
+__all__ = ['Recorder', 'open_bag', 'read_bag', 'bag_info', 'parse_topic', 'normalize_type', 'main']
 
 
 # ---------------------------------------------------------------- names and types
@@ -93,245 +80,78 @@ def _message_class(msgtype):
         raise ValueError(f'msgtype: no Python message class for {msgtype!r} ({exc})') from exc
 
 
-def _share_dirs():
-    dirs = [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
-    dirs.append(sys.prefix)
-    return [Path(d) / 'share' for d in dict.fromkeys(dirs)]
-
-
-def _referenced_types(fielddef):
-    """Type names a rosbags field definition refers to (nested messages)."""
-    out = []
-    stack = [fielddef]
-    while stack:
-        node = stack.pop()
-        if isinstance(node, tuple):
-            is_name = len(node) == 2 and getattr(node[0], 'name', '') == 'NAME' and isinstance(node[1], str)
-            if is_name and '/' in node[1]:
-                out.append(node[1])
-            else:
-                stack.extend(node)
-        elif isinstance(node, list):
-            stack.extend(node)
-    return out
+def _msg_file(msgtype):
+    """The installed `share/<pkg>/msg/<Type>.msg` of `msgtype` (AMENT_PREFIX_PATH, then this Python prefix)."""
+    pkg, _, base = msgtype.split('/')
+    prefixes = [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p] + [sys.prefix]
+    for prefix in dict.fromkeys(prefixes):
+        path = Path(prefix) / 'share' / pkg / 'msg' / f'{base}.msg'
+        if path.is_file():
+            return path
+    raise ValueError(f'msgtype: no definition found for {msgtype!r} (not in the typestore, no '
+                     f'share/{pkg}/msg/{base}.msg under {list(dict.fromkeys(prefixes))})')
 
 
 def ensure_type(typestore, msgtype):
-    """Make sure `typestore` knows `msgtype` (and the types it nests).
-
-    The Jazzy typestore knows every common_interfaces type; anything else is read from the installed
-    `share/<pkg>/msg/<Type>.msg` files (AMENT_PREFIX_PATH and this Python prefix), like rosbag2 does.
-    """
-    todo = [msgtype]
+    """Register `msgtype` and the types it nests in `typestore` where it lacks them, from their
+    installed .msg files, as rosbag2 does (the Jazzy typestore knows every common_interfaces type)."""
+    found, todo = {}, [msgtype]
     while todo:
         name = todo.pop()
-        if name in typestore.fielddefs:
+        if name in found or name in typestore.fielddefs:
             continue
-        pkg, _, base = name.split('/')
-        for share in _share_dirs():
-            path = share / pkg / 'msg' / f'{base}.msg'
-            if path.is_file():
-                typs = get_types_from_msg(path.read_text(encoding='utf-8'), name)
-                break
-        else:
-            raise ValueError(f'msgtype: no definition found for {name!r} (not in the Jazzy typestore, '
-                             f'no {pkg}/msg/{base}.msg under {[str(s) for s in _share_dirs()]})')
-        missing = [t for t in _referenced_types(typs[name]) if t not in typestore.fielddefs]
-        if missing:
-            todo.append(name)
-            todo.extend(missing)
-            continue
-        typestore.register(typs)
-
-
-def _qos_time(duration):
-    sec, nsec = divmod(int(duration.nanoseconds), 10**9)
-    return QosTime(sec, nsec)
+        found.update(get_types_from_msg(_msg_file(name).read_text(encoding='utf-8'), name))
+        for _, (kind, spec) in found[name][1]:
+            kind, spec = spec[0] if kind in (Nodetype.ARRAY, Nodetype.SEQUENCE) else (kind, spec)
+            if kind == Nodetype.NAME:
+                todo.append(spec)
+    if found:
+        typestore.register(found)
 
 
 def _offered_qos(qos):
-    """rclpy QoSProfile (as announced by a publisher) -> rosbags Qos for metadata.yaml."""
-    def enum(cls, value, default):
-        try:
-            return cls(int(value))
-        except ValueError:
-            return default
-    return Qos(
-        history=enum(QosHistory, qos.history, QosHistory.UNKNOWN),
-        depth=int(qos.depth),
-        reliability=enum(QosReliability, qos.reliability, QosReliability.UNKNOWN),
-        durability=enum(QosDurability, qos.durability, QosDurability.UNKNOWN),
-        deadline=_qos_time(qos.deadline),
-        lifespan=_qos_time(qos.lifespan),
-        liveliness=enum(QosLiveliness, qos.liveliness, QosLiveliness.UNKNOWN),
-        liveliness_lease_duration=_qos_time(qos.liveliness_lease_duration),
-        avoid_ros_namespace_conventions=bool(qos.avoid_ros_namespace_conventions),
-    )
-
-
-_ADD = object()  # queue marker: add a connection
+    """rclpy QoSProfile (as a publisher announces it) -> rosbags Qos (the policies' values are rmw's in both)."""
+    def duration(d):
+        return QosTime(*divmod(int(d.nanoseconds), 10**9))
+    return Qos(QosHistory(int(qos.history)), int(qos.depth), QosReliability(int(qos.reliability)),
+               QosDurability(int(qos.durability)), duration(qos.deadline), duration(qos.lifespan),
+               QosLiveliness(int(qos.liveliness)), duration(qos.liveliness_lease_duration),
+               bool(qos.avoid_ros_namespace_conventions))
 
 
 def _hidden(topic):
     return any(part.startswith('_') for part in topic.split('/') if part)
 
 
+def _hand_over(node, count, log):
+    """Spin the executor of `node` until it hands over no more messages (count(): messages received so
+    far), at most 1 s: an executor that fell behind under load would otherwise lose a run's last
+    messages. Skipped when called from inside that executor's callbacks."""
+    if node.executor is None:
+        return
+    try:
+        spin_until_idle(node.executor, count)
+    except Exception as exc:  # context shut down, or called from inside a callback of the executor
+        log.debug(f'recorder: handing over the waiting messages: {exc!r}')
+
+
 # ---------------------------------------------------------------- the bag
 
-#: metadata.yaml's keys in the order rosbag2 (Jazzy) writes them
-METADATA_KEYS = ('version', 'storage_identifier', 'duration', 'starting_time', 'message_count',
-                 'topics_with_message_count', 'compression_format', 'compression_mode', 'relative_file_paths',
-                 'files', 'custom_data', 'ros_distro')
-TOPIC_KEYS = ('name', 'type', 'serialization_format', 'offered_qos_profiles', 'type_description_hash')
+def open_bag(bag_dir):
+    """A rosbags Writer of a new rosbag2 directory as the recorder writes it (mcap, metadata version 9),
+    opened; raises rosbags' WriterError if `bag_dir` exists."""
+    writer = Writer(bag_dir, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+    writer.open()
+    return writer
 
 
-def finish_metadata(bag_dir):
-    """Rewrite `bag_dir`/metadata.yaml as rosbag2 on Jazzy writes it: ros_distro 'jazzy' (rosbags
-    writes 'rosbags') and rosbag2's key order. Each topic's offered_qos_profiles (a list of profiles
-    with policy names, `reliability: best_effort`, durations as sec/nsec) stays as written: the
-    storage file's channels carry the same, and readers match the two. The copy of the metadata
-    inside the storage file keeps ros_distro 'rosbags'; rosbag2 reads metadata.yaml."""
-    import yaml
-    path = Path(bag_dir) / 'metadata.yaml'
-    info = yaml.safe_load(path.read_text(encoding='utf-8'))['rosbag2_bagfile_information']
-    info['ros_distro'] = ROS_DISTRO
-    for entry in info['topics_with_message_count']:
-        entry['topic_metadata'] = {k: entry['topic_metadata'][k] for k in TOPIC_KEYS}
-        entry['message_count'] = entry.pop('message_count')
-    ordered = {'rosbag2_bagfile_information': {k: info[k] for k in METADATA_KEYS}}
-    tmp = path.with_suffix('.yaml.tmp')
-    tmp.write_text(yaml.safe_dump(ordered, sort_keys=False, default_flow_style=False), encoding='utf-8')
-    tmp.replace(path)
-
-
-class BagWriter:
-    """A rosbag2 directory written by a thread of its own: the executor never waits on disk.
-
-    `queue` takes `(topic, t_ns, data)` items (serialized CDR bytes); a topic's connection, which
-    add() queues, precedes its messages. The thread owns the rosbags Writer from open() to close()
-    (sqlite3 objects must stay in the thread that made them) and writes what is queued every
-    20 ms. `counts` {topic: messages written} and `types` {topic: msgtype} grow as it goes.
-    """
-
-    def __init__(self, path, storage, typestore, log, qos_of=None):
-        self.path = Path(path)
-        self.storage = storage
-        self.typestore = typestore
-        self.queue = collections.deque()  # (topic, t_ns, bytes) or (_ADD, topic, (msgtype, qos))
-        self.types = {}
-        self.counts = {}
-        self.qos_of = qos_of if qos_of is not None else (lambda topic: [])
-        self.error = None        # what stopped the writing (disk full, ...), reported by the recorder
-        self._log = log
-        self._wake = threading.Event()
-        self._opened = threading.Event()
-        self._closing = False
-        self._thread = None
-
-    def remove_old(self):
-        """Delete the rosbag2 directory at `path`; ValueError if it holds anything but a bag's files."""
-        entries = list(self.path.iterdir()) if self.path.is_dir() else None
-        looks_like_bag = entries is not None and all(
-            e.is_file() and (e.name == 'metadata.yaml' or e.suffix in ('.mcap', '.db3', '.zstd', '.tmp'))
-            for e in entries)
-        if not looks_like_bag:
-            raise ValueError(f'bag_dir: {self.path} exists and is not a rosbag2 directory; not replacing it')
-        shutil.rmtree(self.path)
-
-    def open(self):
-        """Create the bag and start the writer thread; raises what rosbags raised."""
-        writer = Writer(self.path, version=BAG_VERSION, storage_plugin=STORAGES[self.storage])
-        writer.set_custom_data('recorder', 'robot_control.record')
-        writer.set_custom_data('timestamps', 'receive time, node clock, ns')
-        self._thread = threading.Thread(target=self._write_loop, args=(writer,), name='recorder-writer',
-                                        daemon=True)
-        self._thread.start()
-        self._opened.wait()
-        if self.error is not None:
-            self._thread.join()
-            raise self.error
-        atexit.register(self.close)  # a forgotten stop() still leaves a readable bag
-
-    def add(self, topic, msgtype, offered=()):
-        """Queue the connection of `topic` (once), with the QoS profiles its publishers offered."""
-        if topic in self.types:
-            return
-        ensure_type(self.typestore, msgtype)
-        self.types[topic] = msgtype
-        self.counts[topic] = 0
-        self.queue.append((_ADD, topic, (msgtype, list(offered))))
-
-    def queued(self):
-        """Messages queued but not written yet."""
-        return sum(1 for item in list(self.queue) if item[0] is not _ADD)
-
-    def close(self):
-        """Let the thread write the queue and close the bag; also run at interpreter exit."""
-        self._closing = True
-        atexit.unregister(self.close)
-        self._wake.set()
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.join()
-
-    def _connect(self, writer, conns, topic, msgtype, offered):
-        conns[topic] = writer.add_connection(topic, msgtype, typestore=self.typestore, offered_qos_profiles=offered)
-        return conns[topic]
-
-    def _drain(self, writer, conns, waiting):
-        """Write what is queued. A connection queued without offered QoS waits in `waiting` for its
-        first message, when its publishers are known: qos_of(topic) gives their profiles then."""
-        queue = self.queue
-        counts = self.counts
-        write = writer.write
-        while queue:
-            item = queue.popleft()
-            if item[0] is _ADD:
-                _, topic, (msgtype, offered) = item
-                if offered:
-                    self._connect(writer, conns, topic, msgtype, offered)
-                else:
-                    waiting[topic] = msgtype
-            else:
-                topic, t_ns, data = item
-                conn = conns.get(topic)
-                if conn is None:
-                    conn = self._connect(writer, conns, topic, waiting.pop(topic), self._qos_of(topic))
-                write(conn, t_ns, data)
-                counts[topic] += 1
-
-    def _qos_of(self, topic):
-        try:
-            return list(self.qos_of(topic))
-        except Exception as exc:  # node or context gone: the topic is listed without offered QoS
-            self._log.debug(f'recorder: offered QoS of {topic}: {exc!r}')
-            return []
-
-    def _write_loop(self, writer):
-        try:
-            writer.open()
-        except BaseException as exc:
-            self.error = exc
-            self._opened.set()
-            return
-        self._opened.set()
-        conns, waiting = {}, {}
-        try:
-            while not self._closing:
-                self._wake.wait(0.02)
-                self._drain(writer, conns, waiting)
-            self._drain(writer, conns, waiting)
-            for topic, msgtype in waiting.items():  # no message came: listed with what is known
-                self._connect(writer, conns, topic, msgtype, self._qos_of(topic))
-            writer.close()
-            finish_metadata(self.path)
-        except BaseException as exc:  # disk full, ...: stop writing, report at stop()
-            self.error = exc
-            self._log.error(f'recorder: writing {self.path} failed: {exc!r}')
-            try:
-                writer.close()
-            except BaseException:
-                writer.abort()
+def _remove_old_bag(path):
+    """Delete the rosbag2 directory `path`; ValueError if it holds anything but a bag's files."""
+    entries = list(path.iterdir()) if path.is_dir() else []
+    if not path.is_dir() or not all(e.is_file() and (e.name == 'metadata.yaml' or e.suffix in ('.mcap', '.db3'))
+                                    for e in entries):
+        raise ValueError(f'bag_dir: {path} exists and is not a rosbag2 directory; not replacing it')
+    shutil.rmtree(path)
 
 
 # ---------------------------------------------------------------- the recorder
@@ -349,24 +169,20 @@ class Recorder:
         discovery_timeout: s, how long start() waits for untyped topics to appear on the graph;
             topics still unknown then stay pending and are subscribed as soon as they appear.
         discovery_period: s, how often the graph is polled after start() (steady clock).
-        storage: 'mcap' (default, Jazzy's) or 'sqlite3'.
         depth: subscription queue depth (KEEP_LAST); messages beyond it are dropped by DDS if the
             executor falls that far behind.
         overwrite: replace `bag_dir` if it is an existing rosbag2 directory (never anything else).
-        typestore: rosbags typestore used for definitions/hashes (default: ROS2_JAZZY).
+        typestore: rosbags typestore of the definitions and hashes (default: ROS2_JAZZY).
 
     start() opens the bag and subscribes (explicitly typed topics at once, untyped ones when they are
-    on the graph); stop() lets the node's executor hand over what DDS has delivered, unsubscribes,
-    writes what is queued and closes the bag (idempotent, returns {topic: message count}). Also a
-    context manager. The subscription QoS follows the publishers seen, as rosbag2 does: best
-    effort if any publisher is best effort, transient local if all are. Spin the node with rclpy's
-    EventsExecutor for high rates (see robot_control.tools.taps).
+    on the graph); stop() lets the node's executor hand over what DDS delivered before the call,
+    unsubscribes and closes the bag (idempotent, returns {topic: message count}); a bag not stopped
+    is closed at interpreter exit. Also a context manager. The subscription QoS follows the
+    publishers seen, as rosbag2's: best effort if any publisher is, transient local if all are.
     """
 
     def __init__(self, node, bag_dir, topics=(), *, all_topics=False, exclude=None, discovery_timeout=5.0,
-                 discovery_period=0.1, storage=DEFAULT_STORAGE, depth=10000, overwrite=False, typestore=None):
-        if storage not in STORAGES:
-            raise ValueError(f'storage: expected one of {sorted(STORAGES)}, got {storage!r}')
+                 discovery_period=0.1, depth=10000, overwrite=False, typestore=None):
         if isinstance(topics, str):
             topics = [topics]
         self.node = node
@@ -385,8 +201,9 @@ class Recorder:
         if not self._requested and not self.all_topics:
             raise ValueError('topics: give at least one topic or all_topics=True')
         self._log = node.get_logger()
-        self._bag = BagWriter(self.path, storage, self.typestore, self._log, qos_of=self._publisher_qos)
-        self._lock = threading.RLock()  # guards the subscription tables (executor thread vs. stop())
+        self._lock = threading.RLock()  # the writer and the subscriptions: executor thread vs. stop()
+        self._writer = None     # rosbags Writer, from start() until the bag is closed
+        self._conns = {}        # topic -> rosbags Connection, made with the topic's first message
         self._timer = None
         self._running = False
         self._closed = False
@@ -395,8 +212,7 @@ class Recorder:
         self._subs = {}         # topic -> Subscription
         self._best_effort = {}  # topic -> bool (reliability of our subscription)
         self._failed = set()    # topics --all cannot record (no definition or class): not retried
-        self.types = self._bag.types    # topic -> msgtype, every topic with a connection in the bag
-        self.counts = self._bag.counts  # topic -> messages written
+        self.types = {}         # topic -> msgtype of every topic subscribed: each gets a connection
         self.t_start = None     # monotonic s at start() / stop()
         self.t_stop = None
 
@@ -408,17 +224,18 @@ class Recorder:
             raise RuntimeError('Recorder.start: already started')
         try:
             if self.path.exists() and self.overwrite:
-                self._bag.remove_old()
-            self._bag.open()
+                _remove_old_bag(self.path)
+            self._writer = open_bag(self.path)
         except BaseException:
             self._closed = True
             raise
+        atexit.register(self._close_bag)  # a forgotten stop() still leaves a readable bag
         self._running = True
         self.t_start = time.monotonic()
         try:
             for topic, msgtype in self._requested.items():
                 if msgtype is not None:
-                    self._add_topic(topic, msgtype)
+                    self._start_topic(topic, msgtype, self._publishers(topic, msgtype))
             self._wait_for_untyped_topics()
             from rclpy.clock import Clock, ClockType
             self._timer = self.node.create_timer(self.discovery_period, self._discover_safe,
@@ -441,14 +258,14 @@ class Recorder:
                               'recording it once a publisher appears')
 
     def stop(self):
-        """Record what this process received before the call, unsubscribe, write what is queued, close
-        the bag. Safe to call twice. Returns counts. The bag is closed even if the node or its context
-        is already gone."""
+        """Record what this process received before the call, unsubscribe, close the bag. Safe to call
+        twice; returns counts. The bag is closed even if the node or its context is already gone."""
         if self._closed:
-            return dict(self.counts)
+            return self.counts
         self._running = False
         self._until_ns = time.time_ns()   # the reception clock of MessageInfo: what comes later is not recorded
-        self._hand_over_waiting()         # before unsubscribing: a subscription's queue goes with it
+        if self._subs:                    # before unsubscribing: a subscription's queue goes with it
+            _hand_over(self.node, lambda: self._received, self._log)
         with self._lock:
             self._closed = True
             subs, self._subs = dict(self._subs), {}
@@ -461,23 +278,19 @@ class Recorder:
             self._log.debug(f'recorder: unsubscribing: {exc!r}')
         finally:
             self._timer = None
-            self._bag.close()
+            self._close_bag()
         self.t_stop = time.monotonic()
-        if self._bag.error is not None:
-            raise RuntimeError(f'recorder: writing {self.path} failed: {self._bag.error!r}') from self._bag.error
-        return dict(self.counts)
+        return self.counts
 
-    def _hand_over_waiting(self):
-        """Spin the node's executor until it hands over no more messages received before stop() (at
-        most 1 s): an executor that fell behind under load would otherwise lose the run's last
-        messages. Call stop() outside that executor's callbacks, or this is skipped."""
-        executor = self.node.executor
-        if executor is None or not self._subs:
-            return
-        try:
-            spin_until_idle(executor, lambda: self._received)
-        except Exception as exc:  # context shut down, or called from inside a callback of the executor
-            self._log.debug(f'recorder: handing over the waiting messages: {exc!r}')
+    def _close_bag(self):
+        """Give every subscribed topic its connection (one without messages too) and close the bag."""
+        atexit.unregister(self._close_bag)
+        with self._lock:
+            writer, self._writer = self._writer, None
+            if writer is not None:
+                for topic in self.types.keys() - self._conns.keys():
+                    self._connect(writer, topic)
+                writer.close()
 
     def __enter__(self):
         return self.start()
@@ -497,6 +310,18 @@ class Recorder:
     def subscribed(self):
         return sorted(self._subs)
 
+    @property
+    def counts(self):
+        """{topic: messages written} of every topic subscribed."""
+        with self._lock:
+            written = {t: c.owner.counts[c.id] for t, c in self._conns.items()}
+        return {t: written.get(t, 0) for t in self.types}
+
+    @property
+    def received(self):
+        """Messages received and written so far."""
+        return self._received
+
     def publisher_counts(self):
         """{topic: publishers matched by our subscription}. DDS matching can lag discovery by a second
         or more: wait for this (or for a first message) before starting what must be recorded."""
@@ -510,31 +335,22 @@ class Recorder:
                 out[topic] = 0
         return out
 
-    @property
-    def message_count(self):
-        """Messages written so far."""
-        return sum(dict(self.counts).values())  # copy: the writer thread updates the counts
-
-    def queued(self):
-        """Messages received but not written yet."""
-        return self._bag.queued()
-
-    @property
-    def received(self):
-        """Messages received so far (written or queued)."""
-        return self._received
-
     # -- internals
 
-    def _publisher_qos(self, topic):
-        """The QoS profiles (rosbags Qos) of the publishers of `topic` with its recorded type, now."""
-        return [_offered_qos(i.qos_profile) for i in self.node.get_publishers_info_by_topic(topic)
-                if normalize_type(i.topic_type) == self.types[topic]]
+    def _publishers(self, topic, msgtype):
+        """The publishers of `topic` with type `msgtype` on the graph now (their endpoint infos)."""
+        return [i for i in self.node.get_publishers_info_by_topic(topic) if normalize_type(i.topic_type) == msgtype]
 
-    def _add_topic(self, topic, msgtype, offered=()):
-        """Give `topic` a connection in the bag (once), ahead of its messages."""
-        _message_class(msgtype)  # fail here, before the bag gets a connection it cannot fill
-        self._bag.add(topic, msgtype, offered)
+    def _connect(self, writer, topic):
+        """The bag's connection of `topic`, with the QoS its publishers offer now (none if the node is gone)."""
+        try:
+            offered = [_offered_qos(i.qos_profile) for i in self._publishers(topic, self.types[topic])]
+        except Exception as exc:
+            self._log.debug(f'recorder: offered QoS of {topic}: {exc!r}')
+            offered = []
+        self._conns[topic] = writer.add_connection(topic, self.types[topic], typestore=self.typestore,
+                                                   offered_qos_profiles=offered)
+        return self._conns[topic]
 
     def _subscribe(self, topic, best_effort, transient_local):
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -542,13 +358,17 @@ class Recorder:
             history=HistoryPolicy.KEEP_LAST, depth=self.depth,
             reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if transient_local else DurabilityPolicy.VOLATILE)
-        append = self._bag.queue.append
         now = self.node.get_clock().now
 
         def keep(data, info):  # raw=True: `data` is the serialized CDR message (bytes)
-            if info['received_timestamp'] <= self._until_ns:
-                append((topic, now().nanoseconds, data))
-                self._received += 1
+            if info['received_timestamp'] > self._until_ns:
+                return
+            t_ns = now().nanoseconds
+            with self._lock:
+                writer = self._writer
+                if writer is not None:
+                    writer.write(self._conns.get(topic) or self._connect(writer, topic), t_ns, data)
+                    self._received += 1
 
         with self._lock:
             if self._closed:
@@ -575,53 +395,46 @@ class Recorder:
             graph = dict(self.node.get_topic_names_and_types())
         except Exception:  # context shutting down
             return
-        for topic, explicit in self._wanted(graph).items():
-            if topic in self._failed:
-                continue
-            infos = self.node.get_publishers_info_by_topic(topic) if topic in graph else []
+        wanted = set(self._requested)
+        if self.all_topics:
+            wanted.update(t for t in graph if not _hidden(t) and not (self.exclude and self.exclude.search(t)))
+        for topic in wanted - self._failed:
             if topic in self._subs:
                 # A reliable subscription never matches a best-effort publisher: downgrade if one appears.
+                infos = self._publishers(topic, self.types[topic])
                 if not self._best_effort[topic] and any(int(i.qos_profile.reliability) == 2 for i in infos):
                     self._log.warning(f'{topic}: best-effort publisher seen, resubscribing best effort')
                     self._subscribe(topic, True, False)
-            elif explicit is not None or infos:  # an untyped topic waits for a publisher to tell its type
-                self._start_topic(topic, explicit, infos, graph.get(topic, []))
+            elif topic in graph:
+                self._start_untyped(topic, graph[topic])
 
-    def _wanted(self, graph):
-        """{topic: explicit type or None} to record: the requested ones, and with all_topics the graph's."""
-        wanted = dict(self._requested)
-        if self.all_topics:
-            for topic in graph:
-                if topic not in wanted and not _hidden(topic) and not (self.exclude and self.exclude.search(topic)):
-                    wanted[topic] = None
-        return wanted
-
-    def _start_topic(self, topic, explicit, infos, graph_types):
-        """Give `topic` its bag connection and subscription, with the QoS of the publishers `infos`."""
-        msgtype = explicit
-        if msgtype is None:
-            if len(graph_types) > 1:
-                self._log.warning(f'{topic}: several types {graph_types}; recording {graph_types[0]}')
-            msgtype = normalize_type(graph_types[0])
-        matching = [i for i in infos if normalize_type(i.topic_type) == msgtype]
-        if explicit is not None and infos and not matching:
-            self._log.warning(f'{topic}: publishers offer {sorted({i.topic_type for i in infos})}, '
-                              f'not {msgtype}; nothing will be recorded until one does')
+    def _start_untyped(self, topic, graph_types):
+        """Record `topic`, on the graph with `graph_types`, as the first of them once a publisher of it is
+        seen (it tells the type); a topic that cannot be recorded is logged and left alone."""
+        msgtype = normalize_type(graph_types[0])
+        publishers = self._publishers(topic, msgtype)
+        if not publishers:
+            return
+        if len(graph_types) > 1:
+            self._log.warning(f'{topic}: several types {graph_types}; recording {graph_types[0]}')
         try:
-            self._add_topic(topic, msgtype, [_offered_qos(i.qos_profile) for i in matching])
+            self._start_topic(topic, msgtype, publishers)
         except ValueError as exc:
-            if explicit is not None:
-                raise
             self._log.error(f'{topic}: cannot record: {exc}')
             self._failed.add(topic)
-            return
-        announced = {h for h in (str(i.topic_type_hash) for i in matching)
+
+    def _start_topic(self, topic, msgtype, publishers):
+        """Subscribe to `topic` as `msgtype`, with the QoS that matches its `publishers`."""
+        _message_class(msgtype)           # fail here, before the bag lists a topic it cannot fill
+        ensure_type(self.typestore, msgtype)
+        announced = {h for h in (str(i.topic_type_hash) for i in publishers)
                      if h.startswith('RIHS01_') and h[len('RIHS01_'):].strip('0')}  # 0...0: unknown
         ours = self.typestore.hash_rihs01(msgtype)
         if announced and ours not in announced:
             self._log.warning(f'{topic}: type hash {ours} differs from the publishers\' {sorted(announced)}')
-        best_effort = any(int(i.qos_profile.reliability) == 2 for i in matching)
-        transient_local = bool(matching) and all(int(i.qos_profile.durability) == 1 for i in matching)
+        self.types[topic] = msgtype
+        best_effort = any(int(i.qos_profile.reliability) == 2 for i in publishers)
+        transient_local = bool(publishers) and all(int(i.qos_profile.durability) == 1 for i in publishers)
         self._subscribe(topic, best_effort, transient_local)
         if self.all_topics and topic not in self._requested:
             self._log.info(f'recording {topic} [{msgtype}]')
@@ -703,8 +516,6 @@ def _parser():
     p.add_argument('-a', '--all', action='store_true', help='record every topic that appears (not hidden ones)')
     p.add_argument('-x', '--exclude', default=None, help='regular expression of topics not recorded by --all')
     p.add_argument('-d', '--duration', type=float, default=None, help='stop after this many seconds (wall clock)')
-    p.add_argument('-s', '--storage', choices=sorted(STORAGES), default=DEFAULT_STORAGE,
-                   help='storage plugin (default: mcap, as ros2 bag on Jazzy)')
     p.add_argument('--discovery-timeout', type=float, default=5.0,
                    help='s to wait for untyped topics to appear before recording starts (default 5)')
     p.add_argument('--overwrite', action='store_true', help='replace an existing bag directory')
@@ -717,9 +528,8 @@ def main(args=None):
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
     from rclpy.utilities import remove_ros_args
-    from robot_control.ros.spin import make_executor
+    from robot_control.ros.spin import init_with_stop_on_signals, make_executor
 
     argv = sys.argv if args is None else ['record', *args]
     opts = _parser().parse_args(remove_ros_args(argv)[1:])
@@ -733,9 +543,7 @@ def main(args=None):
         print(f'record: {opts.output} exists already (use --overwrite or another --output)', file=sys.stderr)
         return 2
 
-    stop = threading.Event()
-    old = {s: signal.signal(s, lambda _signum, _frame: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
-    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    stop = init_with_stop_on_signals(argv)
     node = recorder = executor = None
     counts = {}
     try:
@@ -743,11 +551,9 @@ def main(args=None):
         executor = make_executor('events')
         executor.add_node(node)
         recorder = Recorder(node, opts.output, opts.topics, all_topics=opts.all, exclude=opts.exclude,
-                            discovery_timeout=opts.discovery_timeout, storage=opts.storage,
-                            overwrite=opts.overwrite)
+                            discovery_timeout=opts.discovery_timeout, overwrite=opts.overwrite)
         recorder.start()
-        print(f'record: writing {opts.output} ({opts.storage}); topics: '
-              f'{", ".join(recorder.subscribed) or "(waiting)"}'
+        print(f'record: writing {opts.output}; topics: {", ".join(recorder.subscribed) or "(waiting)"}'
               + (f'; pending: {", ".join(recorder.pending)}' if recorder.pending else ''), flush=True)
         _record(executor, recorder, stop, opts.duration)
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -762,8 +568,6 @@ def main(args=None):
             if node is not None:
                 node.destroy_node()
             rclpy.try_shutdown()
-            for s, h in old.items():
-                signal.signal(s, h)
     _report(opts.output, recorder, counts)
     return 0
 

@@ -78,39 +78,76 @@ def read(urdf):
 MESH_SCHEMES = ('file://', 'package://', 'model://')
 
 
-def mesh_path(name, base):
-    """The absolute file a URDF in directory `base` means by mesh file name `name`, found as PyBullet
-    finds it: a 'file://', 'package://' or 'model://' prefix dropped, then `base`/name, `base`/../name,
-    ... up to the root directory, the first that exists. An absolute name is returned as it is; None for
-    other URIs and for a name found nowhere."""
-    for scheme in MESH_SCHEMES:
-        if name.startswith(scheme):
-            name = name[len(scheme):]
-            break
-    if not name or '://' in name:
-        return None
-    if os.path.isabs(name):
-        return name
+def package_dirs(package):
+    """Directories that may be ROS package `package`, in lookup order: share/<package> below each
+    AMENT_PREFIX_PATH entry (the ament index) and below the example-robot-data wheel's prefix
+    (cmeel.prefix), then <entry>/<package> for each ROS_PACKAGE_PATH entry, and the entry itself when it
+    is named `package`."""
+    ament = [e for e in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if e]
+    wheels = [prefix for prefix in _prefixes() if os.path.isdir(prefix) and prefix not in ament]
+    dirs = [os.path.join(prefix, 'share', package) for prefix in ament + wheels]
+    for entry in os.environ.get('ROS_PACKAGE_PATH', '').split(os.pathsep):
+        if entry:
+            dirs.append(os.path.join(entry, package))
+            if os.path.basename(os.path.normpath(entry)) == package:
+                dirs.append(entry)
+    return dirs
+
+
+def mesh_lookup(name, base):
+    """(file, places) for mesh file name `name` of a URDF in directory `base`.
+
+    'package://<pkg>/<rest>' is <rest> in the first of package_dirs(<pkg>) that holds it; failing
+    that, and for any other name, the 'file://', 'package://' or 'model://' prefix is dropped and the
+    name is found as PyBullet finds it: `base`/name, `base`/../name, ... up to the root directory. An
+    absolute name is itself. file: the absolute path, None when no such file exists (or for other
+    URIs); places: where it was looked for (strings, for an error message)."""
+    scheme = next((s for s in MESH_SCHEMES if name.startswith(s)), '')
+    rest = name[len(scheme):]
+    if not rest or '://' in rest:
+        return None, ['nowhere: not a file name, nor a file://, package:// or model:// URI']
+    if os.path.isabs(rest):
+        return (rest if os.path.isfile(rest) else None), [rest]
+    places = []
+    if scheme == 'package://' and '/' in rest:
+        package, inner = rest.split('/', 1)
+        for directory in package_dirs(package):
+            path = os.path.join(directory, inner)
+            places.append(path)
+            if os.path.isfile(path):
+                return os.path.normpath(path), places
     directory = os.path.abspath(base)
+    places.append(f'{rest} in {directory} and every directory above it')
     while True:
-        path = os.path.join(directory, name)
+        path = os.path.join(directory, rest)
         if os.path.isfile(path):
-            return os.path.normpath(path)
+            return os.path.normpath(path), places
         parent = os.path.dirname(directory)
         if parent == directory:
-            return None
+            return None, places
         directory = parent
 
 
+def mesh_path(name, base):
+    """The absolute file a URDF in directory `base` means by mesh file name `name` (mesh_lookup), or None."""
+    return mesh_lookup(name, base)[0]
+
+
 def with_absolute_meshes(xml, base):
-    """URDF text `xml` whose mesh file names are made absolute against directory `base` (the original
-    file's) as PyBullet resolves them (mesh_path), so the text can be written and loaded anywhere."""
+    """URDF text `xml` whose mesh file names are made absolute 'file://' URIs (which PyBullet and ROS's
+    resource retriever both read) against directory `base` (the original file's) by mesh_lookup, so the
+    text can be written and loaded anywhere. A mesh found nowhere is an ArgumentError naming `urdf`,
+    the link, the mesh and the places looked."""
     import xml.etree.ElementTree as ET
     root = ET.fromstring(xml.lstrip())
-    for mesh in root.iter('mesh'):
-        path = mesh_path(mesh.get('filename', ''), base)
-        if path is not None:
-            mesh.set('filename', path)
+    for link in root.iter('link'):
+        for mesh in link.iter('mesh'):
+            name = mesh.get('filename', '')
+            path, places = mesh_lookup(name, base)
+            if path is None:
+                raise ArgumentError('urdf', f'link {link.get("name")!r}: mesh {name!r} not found; looked in '
+                                            + '; '.join(places))
+            mesh.set('filename', 'file://' + path)
     return ET.tostring(root, encoding='unicode')
 
 

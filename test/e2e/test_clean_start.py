@@ -12,7 +12,7 @@ import pytest
 
 from support import robustness as rh
 from support.e2e import E2E_DOMAINS
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools.processes import DomainClaim
 
 CONTROL_PERIOD = 0.001     # s, config/polar_two_link.yaml
 SETTLE = 1.5               # s between the two starts, and of running together

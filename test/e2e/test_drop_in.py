@@ -17,7 +17,7 @@ import pytest
 from support import robustness as rh
 from support.e2e import E2E_DOMAINS, Lockstep
 from robot_control.tools.demo_experiments import IIWA_LINE
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools.processes import DomainClaim
 
 IIWA = ('lbr_iiwa_joint_1', 'lbr_iiwa_joint_2', 'lbr_iiwa_joint_3', 'lbr_iiwa_joint_4', 'lbr_iiwa_joint_5',
         'lbr_iiwa_joint_6', 'lbr_iiwa_joint_7')

@@ -18,8 +18,8 @@ in the test process; waits are bounded by deadlines, every child is stopped by i
 
 Sizes (runtime on 2 cores): 2,000 hypothesis examples per subscribed topic (8 topics), each one
 published and accounted for; flood 5 s; motions of 1.5-3 s of simulated time.
-The figures of the README table are written to out/robustness/summary.json (and .md) and printed
-at the end of the module.
+The figures of the table in docs/robustness.md are written to out/robustness/summary.json (and .md) and
+printed at the end of the module.
 """
 import contextlib
 import math
@@ -67,7 +67,7 @@ CONTROLLER_HAS_CONTACT_GUARD = 'contact_max_travel' in _controller_parameter_nam
 
 @pytest.fixture(scope='module', autouse=True)
 def figures(request):
-    """Writes out/robustness/summary.json and prints the README table after the module's tests."""
+    """Writes out/robustness/summary.json and prints the docs table after the module's tests."""
     yield TALLY
     path = TALLY.write()
     text = f'\nrobustness figures, {path}:\n{TALLY.table()}\n'
@@ -776,7 +776,7 @@ def impedance_rig():
     from support.e2e import E2E_DOMAINS
     from robot_control import scenarios
     from robot_control.tools.demo_experiments import IIWA_POSTURE
-    from robot_control.tools.demo_procs import DomainClaim
+    from robot_control.tools.processes import DomainClaim
     with DomainClaim(E2E_DOMAINS, start=9) as claim:
         rig = ControllerRig(claim.domain_id, scenarios.get('iiwa').joints, IIWA_POSTURE,
                             dict(scenario='iiwa', law='impedance', task_space='pose', effort_limits=[200.0] * 7,

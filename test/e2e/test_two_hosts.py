@@ -24,7 +24,7 @@ import pytest
 
 from support import two_hosts as th
 from robot_control.models import for_scenario
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools.processes import DomainClaim
 
 OUT = os.path.join(th.ROOT, 'out', 'two_hosts')
 #: domain ids of these runs (the processes live in their own namespaces; claimed all the same)
@@ -46,7 +46,8 @@ pytestmark = pytest.mark.skipif(REASON is not None, reason=f'two hosts need netw
 @pytest.fixture(scope='module', autouse=True)
 def figures(request):
     """Prints and writes the figures the tests measured, with the number of tests of this module that ran and
-    failed (`tests_run`, `tests_failed`: the README's table takes the figures of a whole, passing run only)."""
+    failed (`tests_run`, `tests_failed`: the table in docs/networking.md takes the figures of a whole, passing
+    run only)."""
     failed_before = request.session.testsfailed
     yield FIGURES
     if not FIGURES:

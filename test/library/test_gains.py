@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from robot_control.gains import (RULE_RESONANCE, RULE_ZETA, Design, GainRuleError, ServoGains, design,
+from robot_control.gains import (RULE_RESONANCE, RULE_ZETA, Design, GainRuleError, ServoGains, design, flag,
                                  pd_steady_state_error, pid_gains)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -49,6 +49,24 @@ def test_underdamped_design_is_refused_naming_the_rule():
     assert isinstance(info.value, ValueError)
     assert info.value.rule == RULE_ZETA
     assert str(info.value).startswith('zeta')
+
+
+@pytest.mark.parametrize('kwargs, override', [(dict(zeta=0.7, omega_res=12.0), 'allow_underdamped'),
+                                              (dict(omega_res=12.0, omega_n=6.5), 'allow_resonance')])
+def test_a_refusal_names_its_override_as_the_caller_reads_it(kwargs, override):
+    """The library's reader gets the keyword argument, the command line's the flag, any other reader
+    (the controller node: its parameter) what its name_override makes of the keyword."""
+    with pytest.raises(GainRuleError) as info:
+        design(**kwargs)
+    assert info.value.override == override
+    assert info.value.reason.endswith(f'override: {override}=True')
+    with pytest.raises(GainRuleError) as info:
+        design(**kwargs, name_override=flag)
+    assert info.value.reason.endswith(f'override: --{override.replace("_", "-")}') and '=True' not in str(info.value)
+    with pytest.raises(GainRuleError) as info:
+        design(**kwargs, name_override=lambda name: f'set {name}')
+    assert info.value.reason.endswith(f'override: set {override}')
+    assert design(**kwargs, **{override: True}).kp > 0.0
 
 
 def test_underdamped_design_with_override_has_complex_roots():
@@ -251,8 +269,9 @@ def test_cli_integral_and_explicit_omega_n():
 ])
 def test_cli_rule_violation_exits_nonzero_naming_the_rule(args, rule, override):
     run = _cli(*args)
-    assert run.returncode != 0
+    assert run.returncode == 2
     assert rule in run.stderr and run.stdout == ''
+    assert run.stderr.rstrip().endswith(f'override: {override}') and '=True' not in run.stderr
     allowed = _cli(*args, override)
     assert allowed.returncode == 0, allowed.stderr
     assert set(json.loads(allowed.stdout)) == {'zeta', 'omega_n', 'omega_res', 'kp', 'kv'}
@@ -260,4 +279,9 @@ def test_cli_rule_violation_exits_nonzero_naming_the_rule(args, rule, override):
 
 def test_cli_bad_value_names_the_argument():
     run = _cli('--omega-res', '-3')
-    assert run.returncode != 0 and 'omega_res' in run.stderr
+    assert run.returncode == 2 and 'argument --omega-res: expected a positive number' in run.stderr
+
+
+def test_cli_without_omega_names_the_options_to_give():
+    run = _cli('--zeta', '1')
+    assert run.returncode == 2 and 'give --omega-n or --omega-res' in run.stderr and run.stdout == ''

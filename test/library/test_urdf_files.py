@@ -6,6 +6,7 @@ import sys
 import pytest
 
 from robot_control import urdf
+from robot_control.validation import ArgumentError
 
 UR5 = 'ur_description/urdf/ur5_robot.urdf'
 
@@ -39,13 +40,47 @@ def test_mesh_path_is_none_for_other_uris_and_files_found_nowhere(tmp_path, name
     assert urdf.mesh_path(name, str(tmp_path)) is None
 
 
-def test_with_absolute_meshes_rewrites_what_it_finds_and_leaves_the_rest(tmp_path):
+def test_with_absolute_meshes_rewrites_what_it_finds(tmp_path):
     mesh = _touch(tmp_path / 'pkg' / 'meshes' / 'a.stl')
     xml = ('<robot name="r"><link name="l"><visual><geometry><mesh filename="package://pkg/meshes/a.stl"/>'
-           '</geometry></visual><collision><geometry><mesh filename="package://gone/b.stl"/></geometry>'
-           '</collision></link></robot>')
+           '</geometry></visual></link></robot>')
     out = urdf.with_absolute_meshes(xml, str(tmp_path / 'pkg' / 'urdf'))
-    assert f'filename="{mesh}"' in out and 'filename="package://gone/b.stl"' in out
+    assert f'filename="file://{mesh}"' in out
+    assert urdf.with_absolute_meshes(out, '/elsewhere') == out          # already absolute: as it is
+
+
+@pytest.mark.parametrize('name', ['package://gone/b.stl', 'http://example.com/b.stl', '/no/such/b.stl'])
+def test_a_mesh_found_nowhere_is_an_error_naming_the_link_the_mesh_and_the_places(tmp_path, monkeypatch, name):
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(tmp_path / 'ros'))
+    monkeypatch.setenv('ROS_PACKAGE_PATH', str(tmp_path / 'src'))
+    xml = (f'<robot name="r"><link name="l"><collision><geometry><mesh filename="{name}"/></geometry></collision>'
+           '</link></robot>')
+    with pytest.raises(ArgumentError) as info:
+        urdf.with_absolute_meshes(xml, str(tmp_path / 'pkg' / 'urdf'))
+    assert info.value.name == 'urdf'
+    assert f"link 'l': mesh '{name}' not found; looked in" in str(info.value)
+    if name.startswith('package://'):
+        for place in (tmp_path / 'ros' / 'share' / 'gone' / 'b.stl', tmp_path / 'src' / 'gone' / 'b.stl',
+                      tmp_path / 'pkg' / 'urdf'):
+            assert str(place) in str(info.value)
+
+
+def test_package_uris_resolve_through_the_ament_index_and_ros_package_path(tmp_path, monkeypatch):
+    """package://<pkg>/<rest>: share/<pkg> of an AMENT_PREFIX_PATH prefix first, then a ROS_PACKAGE_PATH
+    entry holding <pkg> (or named <pkg>), wherever the URDF is; the example-robot-data wheel's prefix too."""
+    installed = _touch(tmp_path / 'install' / 'share' / 'arm' / 'meshes' / 'a.stl')
+    source = _touch(tmp_path / 'src' / 'arm' / 'meshes' / 'a.stl')
+    hand = _touch(tmp_path / 'ws' / 'hand' / 'meshes' / 'h.stl')
+    elsewhere = str(tmp_path / 'copy')
+    monkeypatch.setenv('ROS_PACKAGE_PATH', os.pathsep.join([str(tmp_path / 'src'), str(tmp_path / 'ws' / 'hand')]))
+    monkeypatch.delenv('AMENT_PREFIX_PATH', raising=False)
+    assert urdf.mesh_path('package://arm/meshes/a.stl', elsewhere) == source
+    assert urdf.mesh_path('package://hand/meshes/h.stl', elsewhere) == hand
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(tmp_path / 'install'))
+    assert urdf.mesh_path('package://arm/meshes/a.stl', elsewhere) == installed
+    link7 = 'package://example-robot-data/robots/xarm_description/meshes/xarm7/visual/link7.stl'
+    wheel = os.path.dirname(urdf.search_dirs()[-1])          # <prefix>/share/example-robot-data
+    assert urdf.mesh_path(link7, elsewhere) == os.path.join(wheel, link7[len('package://example-robot-data/'):])
 
 
 def test_example_robot_data_is_found_from_the_wheel():

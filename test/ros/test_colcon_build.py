@@ -15,6 +15,8 @@ import sys
 
 import pytest
 
+from support.packaging import PACKAGES, workshop_files
+
 ROOT = os.path.realpath(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 VENV_BIN = os.path.dirname(os.path.abspath(sys.executable))
 PKG = 'robot_control'
@@ -137,6 +139,18 @@ def run_installed(prefix, code, cwd):
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     return site, proc.stdout
+
+
+def test_the_install_holds_the_package_and_nothing_of_the_workshop(installed):
+    """site-packages holds robot_control and sim_bridge (and their egg-info), no benchmarks/, dev/ or test/
+    file and no module of theirs; lib/robot_control only the nodes and the user tools."""
+    prefix, _ = installed
+    (site,) = glob.glob(str(prefix / 'lib' / 'python3*' / 'site-packages'))
+    files = [os.path.relpath(os.path.join(d, f), site).replace(os.sep, '/') for d, _, fs in os.walk(site) for f in fs]
+    assert 'robot_control/tools/record.py' in files and 'sim_bridge/bridge_node.py' in files
+    assert {f.split('/')[0] for f in files if not f.split('/')[0].endswith('.egg-info')} == set(PACKAGES)
+    assert workshop_files(files) == []
+    assert set(names(str(prefix / 'lib' / PKG / '*'))) == {*NODES, *TOOLS}
 
 
 def test_launch_file_is_installed_where_ros2_launch_looks(installed):

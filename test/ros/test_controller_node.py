@@ -508,6 +508,36 @@ def test_invalid_parameter_is_rejected_with_a_reason_and_the_old_value_stays(ros
         assert ctrl.core.config is old_config
 
 
+#: (rule broken, value, the parameter that allows it, the kv designed then: 2 zeta w_n)
+GAIN_RULES = [('zeta', 0.5, 'allow_underdamped', 6.0),          # w_n = 0.5 omega_res = 6
+              ('omega_n', 7.0, 'allow_resonance', 14.0)]        # zeta = 1
+
+
+@pytest.mark.parametrize('name, value, override, kv', GAIN_RULES)
+def test_a_gain_rule_refusal_names_the_parameter_that_overrides_it_and_that_parameter_does(ros_context, name,
+                                                                                         value, override, kv):
+    """`ros2 param set /controller zeta 0.5` is refused with 'override: set the parameter allow_underdamped:
+    true'; that parameter exists (false by default, settable at run time) and, once set, the value is taken;
+    clearing it again while the design needs it is refused."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        assert ctrl.get_parameter(override).value is False
+        refused = ctrl.set_parameters([Parameter(name, value=value)])[0]
+        assert not refused.successful
+        assert refused.reason.endswith(f'override: set the parameter {override}: true'), refused.reason
+        assert ctrl.set_parameters([Parameter(override, value=True)])[0].successful
+        assert ctrl.set_parameters([Parameter(name, value=value)])[0].successful
+        assert list(ctrl.get_parameter('gains.kv').value) == [kv, kv]
+        back = ctrl.set_parameters([Parameter(override, value=False)])[0]
+        assert not back.successful and override in back.reason
+        assert ctrl.get_parameter(override).value is True
+
+
+@pytest.mark.parametrize('name, value, override, kv', GAIN_RULES)
+def test_a_gain_rule_override_given_at_start_up_designs_the_gains(ros_context, name, value, override, kv):
+    with rig(ros_context, **POLAR, **{name: value, override: True}) as (ex, ctrl, robot):
+        np.testing.assert_array_equal(ctrl.core.config.gains.kv, [kv, kv])
+
+
 def test_read_only_parameters_cannot_change(ros_context):
     with rig(ros_context, **POLAR) as (ex, ctrl, robot):
         for name, value in (('joints', ['a', 'b']), ('model', 'single_link'), ('scenario', 'iiwa')):
@@ -720,7 +750,7 @@ def test_main_runs_with_a_params_file_and_stops_cleanly_on_a_signal(sig):
             proc.wait()
 
 
-def test_main_exits_non_zero_naming_an_invalid_parameter():
+def test_main_exits_2_naming_a_bad_parameter_and_its_override():
     proc = _run_node('--params-file', os.path.join(ROOT, 'config', 'polar_two_link.yaml'), '-p', 'zeta:=0.5')
     try:
         out, _ = proc.communicate(timeout=DEADLINE)
@@ -728,8 +758,9 @@ def test_main_exits_non_zero_naming_an_invalid_parameter():
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    assert proc.returncode == 1
-    assert 'invalid parameter zeta: 0.5 breaks the rule zeta >= 1' in out
+    assert proc.returncode == 2
+    assert ('controller_node: bad parameter zeta: 0.5 breaks the rule zeta >= 1 (the lecture: no underdamped '
+            'response, for safety); override: set the parameter allow_underdamped: true') in out
 
 
 # -- joint_trajectory_controller semantics through the node ------------------------------------------------

@@ -7,7 +7,7 @@ import pytest
 from robot_control import scenarios
 from robot_control.ros import controller_params as params
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt, lt_eq, markdown,
-                                           not_empty, one_of, size, subset_of, unique)
+                                           not_empty, one_of, plain_text, size, subset_of, unique)
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
 
@@ -174,6 +174,22 @@ def test_markdown_rows_render_defaults_rules_and_run_time_setting():
     text = markdown(rows)
     assert text.splitlines()[0] == '| parameter | type | default | meaning, units | bounds | set at run time |'
     assert '| robot | string | \'small\' | - | small \\| big | no |' in text
+
+
+def test_plain_text_lists_each_row_with_its_default_setting_and_wrapped_meaning():
+    meaning = 'payload mass, kg; ' + ' '.join(['long words'] * 12)
+    table = Table('probe', lambda v: [Row('robot', 'string', 'small', 'which robot', [one_of(['small', 'big'])],
+                                          read_only=True),
+                                      Row('mass', 'double', 1.0, meaning, [gt(0)]),
+                                      Row('gains.kp', 'double_array', (), 'in force, 1/s^2', reported=True)])
+    lines = plain_text(table.markdown_rows(), width=40).splitlines()
+    assert lines[:2] == ["  robot (string, default 'small', read-only)", '      which robot [bounds: small | big]']
+    assert lines[2] == '  mass (double, default 1.0, settable at run time)'
+    assert all(len(line) <= 40 and line.startswith(' ' * 6) for line in lines[3:-2])
+    assert ' '.join(line.strip() for line in lines[3:-2]) == meaning + ' [bounds: > 0]'
+    assert lines[-2:] == ['  gains.kp (double_array, default [], read-only, reported by the node)',
+                          '      in force, 1/s^2']
+    assert table.markdown_rows()[2][5] == 'no (reported)'
 
 
 # -- the nodes' tables -------------------------------------------------------------------------------------

@@ -3,6 +3,7 @@ real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_par
 import array
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -265,6 +266,17 @@ def test_custom_urdf_needs_urdf_and_joints():
         '', urdf='kuka_iiwa/model.urdf', joints=['lbr_iiwa_joint_1', 'lbr_iiwa_joint_2']))
     assert cfg.n == 2 and cfg.initial_positions.tolist() == [0.0, 0.0] and not cfg.surface_enable
     assert cfg.urdf.endswith('kuka_iiwa/model.urdf')
+
+
+@pytest.mark.parametrize('name, value', [('payload.mass', 1.0), ('disturbance.cartesian_force', [1.0, 0.0, 0.0])])
+def test_what_acts_at_the_tip_is_refused_on_a_custom_robot_naming_the_parameter_that_gives_a_tip(name, value):
+    """A custom URDF robot has no tip link: the refusal names this parameter and the one that gives a tip
+    (scenario), not the World's keyword arguments."""
+    custom = dict(urdf='kuka_iiwa/model.urdf', joints=['lbr_iiwa_joint_1', 'lbr_iiwa_joint_2'])
+    with pytest.raises(ValueError, match=rf"^{re.escape(name)}: needs a tip link .*\(parameter scenario\)") as err:
+        bridge_params.validate(bridge_params.defaults('', **custom, **{name: value}))
+    assert 'tip=' not in str(err.value)
+    assert bridge_params.validate(bridge_params.defaults('iiwa', **{name: value}))
 
 
 def test_deadline_meter_counts_answers_before_the_next_step():

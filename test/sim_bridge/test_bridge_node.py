@@ -406,10 +406,10 @@ def _run_node(*ros_args, timeout=30):
     (['-p', 'mode:=fast'], 'mode'),
     (['-p', 'phisics_step:=0.001'], 'phisics_step'),
 ])
-def test_bad_startup_parameter_exits_nonzero_naming_it(args, name):
+def test_bad_startup_parameter_exits_2_naming_it(args, name):
     result = _run_node(*args)
-    assert result.returncode != 0
-    assert f'bad parameter: {name}:' in result.stderr
+    assert result.returncode == 2
+    assert f'sim_bridge_node: bad parameter {name}: ' in result.stderr
 
 
 @pytest.mark.parametrize('executor, sig', [('events', signal.SIGINT), ('single', signal.SIGTERM)])
@@ -463,3 +463,22 @@ def test_the_urdf_of_the_simulated_robot_is_on_robot_description(ros_context):
         h.probe.destroy_subscription(late)
     finally:
         h.close()
+
+
+def test_the_start_up_report_of_the_world_is_logged_as_warnings(ros_context, tmp_path, capfd):
+    """A URDF whose moved link lacks <inertial>: the World's report line reaches the node log as a WARN."""
+    import re
+    from robot_control import urdf as urdf_files
+    from sim_bridge.bridge_node import SimBridge
+    from sim_bridge.world import World
+    path = urdf_files.resolve('kuka_iiwa/model.urdf')
+    xml = urdf_files.with_absolute_meshes(urdf_files.read(path)[0], os.path.dirname(path))
+    copy = tmp_path / 'iiwa.urdf'
+    copy.write_text(re.sub(r'(<link name="lbr_iiwa_link_3">\s*)<inertial>.*?</inertial>', r'\1', xml, flags=re.S))
+    node = SimBridge(context=ros_context, parameter_overrides=[Parameter('scenario', value='iiwa')],
+                     world_factory=lambda cfg: World(None, urdf=str(copy), joints=cfg.joints, q0=cfg.initial_positions))
+    try:
+        err = capfd.readouterr().err
+    finally:
+        node.destroy_node()
+    assert re.search(r"\[WARN\].*link 'lbr_iiwa_link_3' \(moved by joint 'lbr_iiwa_joint_3'\) has no <inertial>", err), err

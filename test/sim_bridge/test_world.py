@@ -6,6 +6,8 @@ model integrated with PyBullet's own semi-implicit Euler (< 1e-9); wall/table pe
 F / k_e within 2 %; reset is bit-identical; efforts are clipped; brakes hold (< 1e-3 over 1 s);
 disturbances act as set; bad input raises ValueError naming the argument.
 """
+import os
+import re
 import subprocess
 import sys
 
@@ -14,8 +16,10 @@ import pybullet
 import pytest
 
 from robot_control import scenarios
+from robot_control import urdf as urdf_files
 from robot_control.models import for_scenario, make_model
 from robot_control.scenarios import Surface
+from sim_bridge import physics_check
 from sim_bridge.world import World
 
 DT = 0.001
@@ -384,6 +388,87 @@ def test_any_urdf_with_a_joint_subset_loads_and_holds(make_world):
     assert world.joint_names == joints and world.tip is None
     qs = hold_with(world, lambda q, qd: model.g(q), 2000)
     assert np.abs(qs - qs[0]).max() < 1e-4
+
+
+XARM = 'xarm_description/urdf/xarm7.urdf'
+XARM_JOINTS = tuple(f'joint{i}' for i in range(1, 8))
+
+
+def _iiwa_copy(tmp_path, edit=lambda xml: xml):
+    """A copy of pybullet_data's iiwa in tmp_path (its meshes made absolute), edited by `edit`."""
+    path = urdf_files.resolve('kuka_iiwa/model.urdf')
+    xml = urdf_files.with_absolute_meshes(urdf_files.read(path)[0], os.path.dirname(path))
+    out = tmp_path / 'iiwa.urdf'
+    out.write_text(edit(xml), encoding='utf-8')
+    return str(out)
+
+
+def test_a_link_without_inertial_is_massless_in_the_simulation(make_world):
+    """The xArm7's link_eef: PyBullet's default would be 1 kg and 1 kg m^2; the World loads it as the URDF
+    (and Pinocchio) mean it, and finds nothing to report."""
+    world = make_world(None, urdf=XARM, joints=XARM_JOINTS)
+    eef = [j for j in range(pybullet.getNumJoints(world.body, physicsClientId=world.client))
+           if pybullet.getJointInfo(world.body, j, physicsClientId=world.client)[12] == b'link_eef']
+    mass, _, inertia = pybullet.getDynamicsInfo(world.body, eef[0], physicsClientId=world.client)[:3]
+    assert mass == 0.0 and inertia == (0.0, 0.0, 0.0)
+    assert world.report == []
+
+
+def test_the_physics_report_names_the_links_pybullet_simulates_otherwise():
+    """The unmodified xArm7 as PyBullet loads it alone: link_eef 1 kg; g and M differ on the joints before it."""
+    path = urdf_files.resolve(XARM)
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        pybullet.setGravity(0.0, 0.0, -9.81, physicsClientId=client)
+        body = pybullet.loadURDF(path, useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+                                 physicsClientId=client)
+        for i, q in zip(physics_check.movable_joints(client, body).values(), (0.3, -0.5, 0.2, 0.6, -0.3, 0.8, 0.4)):
+            pybullet.resetJointState(body, i, q, 0.0, physicsClientId=client)
+        lines = physics_check.report(client, body, urdf_files.read(path)[0], 9.81)
+    finally:
+        pybullet.disconnect(client)
+    links = [line for line in lines if 'link ' in line]
+    assert len(links) == 1 and "link 'link_eef': simulated with mass 1 kg" in links[0], lines
+    assert "joint 'joint2' at q = -0.5: simulated g -8.80195 N m vs model -5.44633" in '\n'.join(lines)
+
+
+def test_a_copy_of_a_urdf_saved_elsewhere_finds_its_package_meshes(make_world, tmp_path):
+    """xarm7.urdf's package://example-robot-data/... meshes resolve through the wheel's prefix."""
+    copy = tmp_path / 'my_arm.urdf'
+    copy.write_text(urdf_files.read(XARM)[0], encoding='utf-8')
+    world = make_world(None, urdf=str(copy), joints=XARM_JOINTS)
+    model = make_model('urdf', urdf=str(copy), joints=XARM_JOINTS)
+    qs = hold_with(world, lambda q, qd: model.g(q), 500)
+    assert np.abs(qs - qs[0]).max() < 1e-9
+
+
+def test_a_mesh_found_nowhere_is_an_error_naming_the_mesh_and_the_places(tmp_path):
+    xml = urdf_files.read(XARM)[0].replace('meshes/xarm7/visual/link3.stl', 'meshes/xarm7/visual/link3_lost.stl')
+    copy = tmp_path / 'my_arm.urdf'
+    copy.write_text(xml, encoding='utf-8')
+    with pytest.raises(ValueError) as info:
+        World(None, urdf=str(copy), joints=XARM_JOINTS)
+    text = str(info.value)
+    assert info.value.name == 'urdf' and "link 'link3': mesh 'package://example-robot-data/robots/" in text
+    assert 'link3_lost.stl' in text and os.path.join('share', 'example-robot-data', 'robots') in text
+    assert f'{tmp_path} and every directory above it' in text
+
+
+def test_urdf_problems_are_errors_or_start_up_warnings(make_world, tmp_path):
+    """robot_control.urdf.checks in the World: a misread number and a joint moving no mass are errors,
+    a moved link without <inertial> a line of the start-up report (and massless in the simulation)."""
+    with pytest.raises(ValueError, match="^urdf: .*link 'lbr_iiwa_link_5'.*1.7kg"):
+        World(None, urdf=_iiwa_copy(tmp_path, lambda x: x.replace('"1.7"', '"1.7kg"')), joints=scenarios.IIWA_JOINTS)
+    no_link_7 = re.compile(r'(<link name="lbr_iiwa_link_7">\s*)<inertial>.*?</inertial>', re.S)
+    with pytest.raises(ValueError, match="^urdf: .*joint 'lbr_iiwa_joint_7' moves no mass"):
+        World(None, urdf=_iiwa_copy(tmp_path, lambda x: no_link_7.sub(r'\1', x)), joints=scenarios.IIWA_JOINTS)
+    no_link_3 = re.compile(r'(<link name="lbr_iiwa_link_3">\s*)<inertial>.*?</inertial>', re.S)
+    path = _iiwa_copy(tmp_path, lambda x: no_link_3.sub(r'\1', x))
+    world = make_world(None, urdf=path, joints=scenarios.IIWA_JOINTS, q0=(0.2, 0.4, -0.3, -1.0, 0.3, 0.5, 0.1))
+    assert len(world.report) == 1 and "link 'lbr_iiwa_link_3' (moved by joint 'lbr_iiwa_joint_3')" in world.report[0]
+    model = make_model('urdf', urdf=path, joints=scenarios.IIWA_JOINTS)
+    qs = hold_with(world, lambda q, qd: model.g(q), 1000)
+    assert np.abs(qs - qs[0]).max() < 1e-9
 
 
 def test_shipped_urdf_path_without_scenario(make_world):

@@ -4,7 +4,7 @@ Every run is `robot_control.tools.demo.run` in lockstep: sim_bridge_node and con
 processes (stopped by pid in the run's `finally`), the reference publisher and the collector
 in this process. Each run claims a free ROS_DOMAIN_ID in E2E_DOMAINS with a lock file, so runs
 of this suite, of a concurrent suite, or of two workers never share a domain; discovery is
-limited to this machine (conftest.py and demo_procs.ros_env).
+limited to this machine (conftest.py and processes.ros_env).
 
 `Runs` starts a set of runs on a small thread pool (E2E_WORKERS, default 2: one run keeps about
 one core busy, because the lockstep loop hands each tick from one process to the next) and
@@ -18,7 +18,7 @@ import threading
 import numpy as np
 
 from robot_control.tools import demo, demo_metrics
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools.processes import DomainClaim
 
 E2E_DOMAINS = range(71, 81)
 WORKERS = int(os.environ.get('E2E_WORKERS', '2'))
@@ -96,8 +96,8 @@ class Lockstep:
     Use as a context manager on a claimed domain: every process is stopped on exit."""
 
     def __init__(self, domain_id, log_dir, scenario, bridge=None, controller=None):
-        from robot_control.tools import demo_procs
-        self.live = demo.LiveRun(domain_id, demo_procs.ros_env(domain_id), log_dir, lambda *a, **k: None)
+        from robot_control.tools import processes
+        self.live = demo.LiveRun(domain_id, processes.ros_env(domain_id), log_dir, lambda *a, **k: None)
         self.scenario, self.bridge_params, self.controller_params = scenario, bridge or {}, controller or {}
         self._bridge_client = None
 

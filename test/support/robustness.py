@@ -9,7 +9,7 @@
 - Hypothesis strategies of bad messages, one per subscribed topic of the two nodes; each
   example carries at least one fault (`kind`) and, where the fault is one the node must reject,
   `must_reject` is True (the test oracle).
-- Tally: the figures of the README table, written to out/robustness/summary.json.
+- Tally: the figures of the table in docs/robustness.md, written to out/robustness/summary.json.
 - `python test/support/robustness.py flood ...`: a joint_states flood publisher (its own process).
 """
 import contextlib
@@ -196,7 +196,7 @@ def spin_until(executor, predicate, timeout, every=None, action=None, step=0.002
 
 # -- figures -------------------------------------------------------------------------------------------------------
 class Tally:
-    """Figures of the README table, accumulated over the tests of one run and written as JSON."""
+    """Figures of the table in docs/robustness.md, accumulated over the tests of one run and written as JSON."""
 
     def __init__(self):
         self.faults = []            # {'fault', 'survived', 'detail'}

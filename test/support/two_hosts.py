@@ -156,7 +156,7 @@ class TwoHosts:
 def node_env(net, host, domain_id, static_peers=False):
     """Environment of a process on `host`: the run's domain; discovery SUBNET (multicast on the link), or
     with `static_peers` LOCALHOST + ROS_STATIC_PEERS = the other host (unicast discovery, no multicast)."""
-    from robot_control.tools.demo_procs import ros_env
+    from robot_control.tools.processes import ros_env
     env = ros_env(domain_id)
     env['PYTHONPATH'] = ROOT + os.pathsep + env.get('PYTHONPATH', '')
     env['PYTHONDONTWRITEBYTECODE'] = '1'
@@ -178,7 +178,7 @@ class Loop:
     """
 
     def __init__(self, net, domain_id, out_dir, scenario='polar_two_link', static_peers=False):
-        from robot_control.tools.demo_procs import ProcessSet
+        from robot_control.tools.processes import ProcessSet
         self.net = net
         self.domain_id = domain_id
         self.out = str(out_dir)

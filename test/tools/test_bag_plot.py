@@ -1,11 +1,10 @@
 """Plots from any bag: the recorder's mcap bag and a bag laid out as `ros2 bag record` writes it on
-Jazzy (sqlite3 .db3, metadata version 9), read into the tracking figure; the recorder's metadata.
+Jazzy (sqlite3 .db3, metadata version 9), read into the tracking figure.
 
 No DDS here: bags are written from serialized messages (rclpy.serialization), the recorder's by
-its own writer thread (robot_control.tools.record.BagWriter), the ros2-bag-record one row by row
+the writer it opens (robot_control.tools.record.open_bag), the ros2-bag-record one row by row
 with sqlite3 following rosbag2_storage_sqlite3's schema.
 """
-import logging
 import os
 import sqlite3
 import subprocess
@@ -18,7 +17,6 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
 from rclpy.serialization import serialize_message
-from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -28,13 +26,12 @@ from robot_control import urdf
 from robot_control.tools.bag_tracking import BagError, tracking_data
 from robot_control.tools.plot import main as plot_main
 from robot_control.tools.plot import tracking_figure
-from robot_control.tools.record import BagWriter
+from robot_control.tools.record import open_bag
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DT_NS = 1_000_000        # 1 ms control period
 T0_NS = 5_000_000_000    # sim time of the first state
 IIWA = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
-NEVER = QosTime(9223372036, 854775807)  # rmw's "infinite" duration, as rosbag2 stores it
 
 
 def stamp(ns):
@@ -65,21 +62,15 @@ def step_run(names, N, q0, q1):
     return stamps, q, q_d, tau
 
 
-def offered(reliability=QosReliability.RELIABLE, durability=QosDurability.VOLATILE):
-    return Qos(QosHistory.UNKNOWN, 0, reliability, durability, NEVER, NEVER, QosLiveliness.AUTOMATIC, NEVER, False)
-
-
-def recorder_bag(path, messages, offers=None):
-    """A bag written by the recorder's writer: messages [(topic, msgtype, t_ns, msg)] in order;
-    offers {topic: [Qos]} given with the connection, as the recorder does for discovered topics."""
-    offers = offers or {}
-    writer = BagWriter(path, 'mcap', get_typestore(Stores.ROS2_JAZZY), logging.getLogger('test'))
-    writer.open()
+def recorder_bag(path, messages):
+    """A bag written as the recorder writes it: messages [(topic, msgtype, t_ns, msg)] in order, each
+    topic's connection made with its first message."""
+    writer, store, conns = open_bag(path), get_typestore(Stores.ROS2_JAZZY), {}
     for topic, msgtype, t_ns, msg in messages:
-        writer.add(topic, msgtype, offers.get(topic, ()))
-        writer.queue.append((topic, int(t_ns), serialize_message(msg)))
+        if topic not in conns:
+            conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
+        writer.write(conns[topic], int(t_ns), serialize_message(msg))
     writer.close()
-    assert writer.error is None
     return path
 
 
@@ -126,6 +117,9 @@ def test_plot_from_a_recorder_bag(tmp_path):
     assert [a.get_ylabel() for a in rows[0]] == ['position [rad]', 'position [m]']
     assert [a.get_ylabel() for a in rows[2]] == ['torque [N m]', 'joint force [N]']
     np.testing.assert_array_equal(rows[0][1].get_lines()[0].get_ydata(), q_d[:, 1])
+    legends = [[t.get_text() for t in rows[k][0].get_legend().get_texts()] for k in range(3)]
+    assert legends == [['desired $q_d$ (/controller/reference)', 'actual $q$ (/joint_states)'],
+                       ['$e = q_d - q$ (/controller/error)'], ['$\\tau$ applied (/joint_states)', 'limit \u00b160']]
     assert sorted(line.get_ydata()[0] for line in rows[2][0].get_lines() if line.get_linestyle() == '--') \
         == [-60.0, 60.0]
     check_no_offset(fig)
@@ -158,53 +152,10 @@ def test_a_task_space_run_plots_motion_axes_joint_efforts_and_the_force(tmp_path
     rows = axes_by_row(tracking_figure(data))
     assert [len(r) for r in rows] == [1, 1, 2, 1]
     assert rows[3][0].get_title() == 'contact force x' and rows[0][0].get_title() == 'y'
-
-
-def test_the_recorders_metadata_is_what_rosbag2_on_jazzy_writes(tmp_path):
-    messages, _ = polar_messages(N=20)
-    late = offered(QosReliability.BEST_EFFORT)
-    asked = []
-
-    def qos_of(topic):  # the recorder asks the graph for the publishers matched by the first message
-        asked.append(topic)
-        return [late] if topic == '/joint_states' else []
-
-    bag = tmp_path / 'bag'
-    writer = BagWriter(bag, 'mcap', get_typestore(Stores.ROS2_JAZZY), logging.getLogger('test'), qos_of=qos_of)
-    writer.open()
-    writer.add('/never_published', 'std_msgs/msg/String')
-    for topic, msgtype, t_ns, msg in messages:
-        writer.add(topic, msgtype, [offered(durability=QosDurability.TRANSIENT_LOCAL)]
-                   if topic == '/robot_description' else ())  # discovered with its publisher: QoS known
-        writer.queue.append((topic, int(t_ns), serialize_message(msg)))
-    writer.close()
-    assert writer.error is None
-    assert sorted(asked) == sorted(['/joint_states', '/controller/reference', '/controller/error', '/diagnostics',
-                                    '/never_published'])  # once per topic added without QoS
-    text = (bag / 'metadata.yaml').read_text()
-    info = yaml.safe_load(text)['rosbag2_bagfile_information']
-    assert list(info) == ['version', 'storage_identifier', 'duration', 'starting_time', 'message_count',
-                          'topics_with_message_count', 'compression_format', 'compression_mode',
-                          'relative_file_paths', 'files', 'custom_data', 'ros_distro']
-    assert info['version'] == 9 and info['storage_identifier'] == 'mcap' and info['ros_distro'] == 'jazzy'
-    assert info['relative_file_paths'] == ['bag.mcap'] and (bag / 'bag.mcap').is_file()
-    topics = {e['topic_metadata']['name']: e for e in info['topics_with_message_count']}
-    assert topics['/joint_states']['message_count'] == 20
-    meta = topics['/joint_states']['topic_metadata']
-    assert list(meta) == ['name', 'type', 'serialization_format', 'offered_qos_profiles', 'type_description_hash']
-    assert meta['type'] == 'sensor_msgs/msg/JointState' and meta['serialization_format'] == 'cdr'
-    assert meta['type_description_hash'].startswith('RIHS01_')
-    assert meta['offered_qos_profiles'] == [{
-        'history': 'unknown', 'depth': 0, 'reliability': 'best_effort', 'durability': 'volatile',
-        'deadline': {'sec': 9223372036, 'nsec': 854775807}, 'lifespan': {'sec': 9223372036, 'nsec': 854775807},
-        'liveliness': 'automatic', 'liveliness_lease_duration': {'sec': 9223372036, 'nsec': 854775807},
-        'avoid_ros_namespace_conventions': False}]
-    desc = topics['/robot_description']['topic_metadata']['offered_qos_profiles']
-    assert [(q['reliability'], q['durability']) for q in desc] == [('reliable', 'transient_local')]
-    assert topics['/controller/reference']['topic_metadata']['offered_qos_profiles'] == []  # none seen
-    assert topics['/never_published']['message_count'] == 0
-    data = tracking_data(bag)  # storage and metadata agree: every message is read
-    assert data['joint_names'] == ['theta1', 'r'] and data['t'].size == 20
+    assert [t.get_text() for t in rows[3][0].get_legend().get_texts()] \
+        == ['reference $f_d$ (/controller/reference)', 'measured $f$ (/ft_sensor/wrench)']
+    assert [t.get_text() for t in rows[0][0].get_legend().get_texts()][1] \
+        == 'actual $q$ (/controller/reference \u2212 /controller/error)'
 
 
 # ---------------------------------------------------------------- a `ros2 bag record` bag (sqlite3)
@@ -310,6 +261,28 @@ def test_plot_from_a_ros2_bag_record_sqlite3_bag(tmp_path):
         panels = rows[2 * block] + rows[2 * block + 1]
         assert [a.get_title() for a in panels] == IIWA and {a.get_ylabel() for a in panels} == {label}
     assert all(a.get_shared_x_axes().joined(a, fig.axes[0]) for a in fig.axes)
+    check_no_offset(fig)
+
+
+def test_a_bag_of_joint_states_and_commands_plots_only_those(tmp_path):
+    """No reference or error topic, no effort in joint_states, no wrench: positions and the commanded
+    torques, each legend naming its topic; no q_d line, no error block, no force block."""
+    messages, (stamps, q, q_d, tau) = iiwa_messages(N=200)
+    bag = recorder_bag(tmp_path / 'bag', [m for m in messages if m[0] != '/arm/controller/reference'])
+    data = tracking_data(bag)
+    assert np.isnan(data['q_d']).all() and np.isnan(data['e']).all() and data['tau_kind'] == 'commanded'
+    fig = tracking_figure(data, tmp_path / 'tracking.png')
+    rows = axes_by_row(fig)
+    assert [len(r) for r in rows] == [4, 3, 4, 3]  # position and torque, 4 + 3 panels each
+    assert {a.get_ylabel() for a in fig.axes} == {'position [rad]', 'torque [N m]'}
+    for block, legend in enumerate([['actual $q$ (/arm/joint_states)'],
+                                    ['$\\tau$ commanded (/arm/robot_joint_commands)']]):
+        panels = rows[2 * block] + rows[2 * block + 1]
+        assert [a.get_title() for a in panels] == IIWA
+        assert all([t.get_text() for t in a.get_legend().get_texts()] == legend for a in panels)
+        assert all([line.get_label() for line in a.get_lines()] == legend for a in panels)
+    np.testing.assert_array_equal(rows[0][0].get_lines()[0].get_ydata(), q[:, 0])
+    np.testing.assert_array_equal(rows[2][0].get_lines()[0].get_ydata(), tau[:, 0])
     check_no_offset(fig)
 
 

@@ -1,6 +1,6 @@
 """The benchmark runs and reports; nothing here is timed.
 
-`python -m robot_control.tools.bench --quick` must finish and write every key of the interface with a
+`python -m benchmarks.bench --quick` must finish and write every key of the interface with a
 finite number. The helpers the figures rest on are checked for correctness: the modern_robotics
 peer model equals Pinocchio, the real-time metrics count what they claim, stamps are read from
 serialized messages correctly, the ratios and their verdicts follow their rules on given numbers, and
@@ -42,7 +42,7 @@ QUICK_TIMEOUT_S = 300
 
 def test_quick_bench_writes_every_key_as_a_finite_number(tmp_path):
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
-    cmd = [sys.executable, '-m', 'robot_control.tools.bench', '--quick', '--out', str(tmp_path),
+    cmd = [sys.executable, '-m', 'benchmarks.bench', '--quick', '--out', str(tmp_path),
            '--domain-id', os.environ['ROS_DOMAIN_ID']]
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=QUICK_TIMEOUT_S)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
@@ -64,7 +64,7 @@ def test_quick_bench_writes_every_key_as_a_finite_number(tmp_path):
 
 def test_modern_robotics_chain_has_pinocchio_dynamics():
     mr = pytest.importorskip('modern_robotics')
-    from robot_control.tools.bench_mr import mr_chain
+    from benchmarks.bench_mr import mr_chain
     from robot_control.models import for_scenario
     model = for_scenario('iiwa')
     Mlist, Glist, Slist, g = mr_chain(model.model)
@@ -78,7 +78,7 @@ def test_modern_robotics_chain_has_pinocchio_dynamics():
 
 def test_modern_robotics_chain_rejects_a_tree():
     import pinocchio as pin
-    from robot_control.tools.bench_mr import check_serial_chain
+    from benchmarks.bench_mr import check_serial_chain
     model = pin.Model()
     j1 = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), 'a')
     model.addJoint(j1, pin.JointModelRZ(), pin.SE3.Identity(), 'b')
@@ -94,7 +94,7 @@ def _rows(stamps_ms, times_ms):
 
 
 def test_realtime_metrics_count_hits_latency_and_rtf():
-    from robot_control.tools.bench_ros import realtime_metrics
+    from benchmarks.bench_ros import realtime_metrics
     states = _rows(range(5), [0.0, 1.0, 2.0, 3.0, 4.0])            # state k published at k ms
     # command 0 in time (0.5 ms), 1 late (after state 2), 2 missing, 3 in time (0.2 ms)
     commands = _rows([0, 1, 3], [0.5, 2.5, 3.2])
@@ -106,7 +106,7 @@ def test_realtime_metrics_count_hits_latency_and_rtf():
 
 
 def test_realtime_metrics_need_observed_periods():
-    from robot_control.tools.bench_ros import realtime_metrics
+    from benchmarks.bench_ros import realtime_metrics
     with pytest.raises(RuntimeError, match='control periods'):
         realtime_metrics(_rows([0], [0.0]), _rows([0], [0.5]))
 
@@ -114,7 +114,7 @@ def test_realtime_metrics_need_observed_periods():
 def test_header_stamp_read_from_a_serialized_joint_state():
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
-    from robot_control.tools.bench_ros import header_stamp_ns
+    from benchmarks.bench_ros import header_stamp_ns
     msg = JointState()
     msg.header.stamp.sec, msg.header.stamp.nanosec = 12, 345_000_000
     msg.name = ['a']
@@ -124,7 +124,8 @@ def test_header_stamp_read_from_a_serialized_joint_state():
 def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
     """B3 runs the iiwa under hybrid control on the table and under impedance with the parameters of the
     demo's iiwa_hybrid_line and impedance_push; each run's figures are held to B3's targets."""
-    from robot_control.tools import bench, bench_ros, demo_experiments
+    from benchmarks import bench, bench_ros
+    from robot_control.tools import demo_experiments
     (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime', 'iiwa_hybrid_line')
     start = demo_experiments.get('iiwa_hybrid_line').bridge['initial_positions']
     assert 'law:=hybrid' in controller and 'f_d:=[-10.0]' in controller
@@ -139,7 +140,7 @@ def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
 
 
 def test_law_costs_are_held_to_their_ratio_to_rnea():
-    from robot_control.tools import bench
+    from benchmarks import bench
     assert bench.vs_rnea(6.0, 1.2) == pytest.approx(5.0)
     assert bench.verdict('law_vs_rnea_ct_7dof', 8.0).startswith('met')
     assert bench.verdict('law_vs_rnea_ct_7dof', 8.1).startswith('MISSED')
@@ -151,7 +152,7 @@ def test_law_costs_are_held_to_their_ratio_to_rnea():
 
 
 def test_missed_periods_against_the_floor():
-    from robot_control.tools.bench_ros import missed_vs_floor
+    from benchmarks.bench_ros import missed_vs_floor
     assert missed_vs_floor(15, 1000, 40, 4000) == pytest.approx(1.5)      # floor: 10 per 1000 periods
     assert missed_vs_floor(10, 2000, 10, 1000) == pytest.approx(0.5)      # floor: 20 per 2000 periods
     assert missed_vs_floor(1, 1000, 0, 4000) == pytest.approx(1.0)        # a floor of 0 allows one
@@ -165,8 +166,8 @@ def _metrics(periods, missed, p99=0.5, rtf=1.0):
 
 
 def test_realtime_verdict_holds_each_run_to_the_pooled_floor():
-    from robot_control.tools import bench
-    from robot_control.tools.bench_ros import pooled, realtime_results
+    from benchmarks import bench
+    from benchmarks.bench_ros import pooled, realtime_results
     floors = {'polar': _metrics(1000, 4), 'iiwa': _metrics(500, 16, p99=0.7, rtf=0.995),
               'iiwa_hybrid': _metrics(500, 0)}
     floor = pooled(list(floors.values()))
@@ -193,7 +194,7 @@ def test_realtime_verdict_holds_each_run_to_the_pooled_floor():
 def test_floor_exchange_runs_and_reports_its_counts(tmp_path):
     """The bare exchange of B3 (tick paced at 1 kHz, echo answering) for a few hundred periods on this test's
     domain: every period counted as answered in time or missed, latencies and real-time factor measured."""
-    from robot_control.tools import bench, bench_ros
+    from benchmarks import bench, bench_ros
     plan = dataclasses.replace(bench.QUICK, dds_warmup_s=0.1)
     env = bench_ros.ros_env(int(os.environ['ROS_DOMAIN_ID']))
     with bench_ros.Session(env, str(tmp_path)) as session:

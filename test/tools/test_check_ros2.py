@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from robot_control.tools import check_ros2, demo_procs
-from robot_control.tools.ros2_cli import (CheckFailed, Ros2, parse_rates, parse_response, parse_stamp_ns,
-                                          parse_value, sourced_env)
+from dev import check_ros2
+from dev.ros2_cli import CheckFailed, Ros2, parse_rates, parse_response, parse_stamp_ns, parse_value, sourced_env
+from robot_control.tools import processes
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -63,7 +63,7 @@ def fake_ros2(tmp_path):
     (bin_dir / 'ros2').chmod(0o755)
     env = dict(os.environ, PATH=f'{bin_dir}{os.pathsep}{os.environ["PATH"]}',
                DAEMON_PID_FILE=str(tmp_path / 'daemon.pid'))
-    with demo_procs.ProcessSet() as procs:
+    with processes.ProcessSet() as procs:
         ros2 = Ros2(env, tmp_path / 'logs', procs)
         try:
             yield ros2
@@ -73,7 +73,7 @@ def fake_ros2(tmp_path):
 
 def test_without_ros2_it_says_what_to_do_and_exits_2(tmp_path):
     env = dict(os.environ, PATH=str(tmp_path))       # an empty directory: no ros2
-    proc = subprocess.run([sys.executable, '-m', 'robot_control.tools.check_ros2'], cwd=ROOT, env=env,
+    proc = subprocess.run([sys.executable, '-m', 'dev.check_ros2'], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == check_ros2.EXIT_NO_ROS2 == 2
     assert 'no `ros2` command on PATH' in proc.stderr and '/opt/ros/jazzy/setup.bash' in proc.stderr

@@ -1,7 +1,8 @@
-"""The demo as a user runs it (`python -m robot_control.demo`), its process handling, its metrics and
-the README results generator. The lecture's experiments themselves are in test_experiments.py.
+"""The demo as a user runs it (`python -m robot_control.demo`), its process handling and its metrics.
+The lecture's experiments themselves are in test_experiments.py; the docs generator that tabulates
+the demo's summaries is tested in test_docs.py.
 
-Process tests start the demo as a subprocess on a claimed private domain (e2e_helpers) and check
+Process tests start the demo as a subprocess on a claimed private domain (support.e2e) and check
 that every process it started is gone afterwards: after a normal end, after Ctrl-C (SIGINT) and
 after SIGTERM. All waits are bounded by deadlines.
 """
@@ -19,8 +20,8 @@ import pytest
 
 from support.e2e import E2E_DOMAINS
 from robot_control import scenarios
-from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, demo_procs, readme_results
-from robot_control.tools.demo_procs import DomainClaim
+from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, processes
+from robot_control.tools.processes import DomainClaim
 
 ROOT = Path(__file__).resolve().parents[2]
 SUMMARY_KEYS = ('scenario', 'mode', 'duration_s', 'samples', 'rms_error', 'max_error', 'final_error',
@@ -146,7 +147,7 @@ def test_demo_stops_every_process_on_a_signal(tmp_path, domain, sig, code):
         os.kill(p.proc.pid, sig)
         assert p.wait(30.0) == code, p.read()
     finally:
-        p.kill()          # its children die with it (demo_procs.die_with_parent)
+        p.kill()          # its children die with it (processes.die_with_parent)
     assert 'interrupted' in p.read()
     assert not _wait_gone(pids, 5.0), 'a child of the demo survived it'
 
@@ -191,15 +192,15 @@ def test_a_signal_whose_exception_a_finalizer_swallowed_still_interrupts():
             for _ in range(1000):     # the handler runs here, and its Interrupted goes nowhere
                 pass
 
-    old = demo_procs.install_signal_handlers()
+    old = processes.install_signal_handlers()
     try:
-        demo_procs.check_interrupted()          # nothing received yet
+        processes.check_interrupted()          # nothing received yet
         Finalized()
-        with pytest.raises(demo_procs.Interrupted, match='SIGTERM'):
-            demo_procs.check_interrupted()
+        with pytest.raises(processes.Interrupted, match='SIGTERM'):
+            processes.check_interrupted()
     finally:
-        demo_procs.restore_signal_handlers(old)
-    demo_procs.check_interrupted()              # restored: forgotten
+        processes.restore_signal_handlers(old)
+    processes.check_interrupted()              # restored: forgotten
 
 
 def test_a_process_that_hangs_after_a_signal_is_ended_with_its_children(tmp_path):
@@ -207,9 +208,9 @@ def test_a_process_that_hangs_after_a_signal_is_ended_with_its_children(tmp_path
     force_exit_after s after SIGTERM the stacks are printed, the child is stopped and the exit status is 130.
     The pid is printed inside the `try`, so the SIGTERM sent after reading it always lands where it is caught."""
     script = ('import sys, time\n'
-              'from robot_control.tools import demo_procs\n'
-              'demo_procs.install_signal_handlers(force_exit_after=1.0)\n'
-              'child = demo_procs.ProcessSet().start("sleeper", [sys.executable, "-c", "import time; time.sleep(600)"],'
+              'from robot_control.tools import processes\n'
+              'processes.install_signal_handlers(force_exit_after=1.0)\n'
+              'child = processes.ProcessSet().start("sleeper", [sys.executable, "-c", "import time; time.sleep(600)"],'
               ' dict(__import__("os").environ), sys.argv[1])\n'
               'ready = False\n'
               'while True:\n'
@@ -244,7 +245,7 @@ def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
                 'signal.signal(signal.SIGTERM, signal.SIG_IGN)\n'
                 'print("ready", flush=True)\n'
                 'time.sleep(600)\n')
-    p = demo_procs.ManagedProcess('stubborn', [sys.executable, '-c', stubborn], dict(os.environ),
+    p = processes.ManagedProcess('stubborn', [sys.executable, '-c', stubborn], dict(os.environ),
                                   tmp_path / 'stubborn.log').start()
     try:
         deadline = time.monotonic() + 30
@@ -256,27 +257,27 @@ def test_managed_process_escalates_to_sigkill_and_reports_death(tmp_path):
         if p.running():
             os.killpg(p.pid, signal.SIGKILL)
     assert code == -signal.SIGKILL and p.stop_signal == signal.SIGKILL and not p.running()
-    dead = demo_procs.ManagedProcess('dies', [sys.executable, '-c', 'print("bye"); raise SystemExit(3)'],
+    dead = processes.ManagedProcess('dies', [sys.executable, '-c', 'print("bye"); raise SystemExit(3)'],
                                      dict(os.environ), tmp_path / 'dies.log').start()
     dead.proc.wait(timeout=30)
-    with pytest.raises(demo_procs.ProcessError, match=r'(?s)dies \(pid \d+\) exited with status 3.*bye'):
+    with pytest.raises(processes.ProcessError, match=r'(?s)dies \(pid \d+\) exited with status 3.*bye'):
         dead.check_alive()
     dead.stop()
 
 
 def test_ros_env_keeps_dds_on_this_machine():
-    env = demo_procs.ros_env(77, {'ROS_DOMAIN_ID': '0', 'ROS_STATIC_PEERS': '10.0.0.2', 'PATH': '/bin'})
+    env = processes.ros_env(77, {'ROS_DOMAIN_ID': '0', 'ROS_STATIC_PEERS': '10.0.0.2', 'PATH': '/bin'})
     assert env['ROS_DOMAIN_ID'] == '77' and env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
     assert 'ROS_STATIC_PEERS' not in env and env['PATH'] == '/bin'
     with pytest.raises(ValueError, match='^domain_id'):
-        demo_procs.ros_env(300)
+        processes.ros_env(300)
 
 
 def test_private_domains_are_claimed_from_the_top_of_ros_safe_range(tmp_path):
     """Demo and bench runs take 101, 100, ... (ROS's Linux-safe 0..101, clear of the tests' 1..92)."""
-    ids = demo_procs.PRIVATE_DOMAIN_IDS
+    ids = processes.PRIVATE_DOMAIN_IDS
     assert max(ids) == 101 and min(ids) >= 1 and list(ids) == sorted(ids, reverse=True)
-    with demo_procs.private_domain(directory=tmp_path) as a, demo_procs.private_domain(directory=tmp_path) as b:
+    with processes.private_domain(directory=tmp_path) as a, processes.private_domain(directory=tmp_path) as b:
         assert (a.domain_id, b.domain_id) == (101, 100)
 
 
@@ -484,175 +485,6 @@ def test_bridge_parameter_changes_arm_pause_at_then_set_and_resume_when_due():
     assert empty.calls == []
 
 
-# -- the README results table ----------------------------------------------------------------------------
-def _write_summary(base, name, **extra):
-    s = {'scenario': 'polar_two_link', 'experiment': name, 'mode': 'lockstep', 'law': 'computed_torque',
-         'duration_s': 2.0, 'samples': 2001, 'units': {'theta1': 'rad', 'r': 'm'},
-         'rms_error': {'theta1': 0.0123, 'r': 0.00045}, 'max_error': {'theta1': 0.5, 'r': 0.2},
-         'final_error': {'theta1': 1e-5, 'r': 2e-6}, 'steady_state_error': {'theta1': -1e-5, 'r': 0.0},
-         'settling_time_s': 0.964, 'force_rms_error': None, 'saturated_ticks': 0, 'loop_rate_hz': 412.5,
-         'latency_p50_ms': 0.85, 'latency_p99_ms': 4.2}
-    s.update(extra)
-    (base / name).mkdir(parents=True)
-    (base / name / 'summary.json').write_text(json.dumps(s))
-
-
-def test_readme_results_table_is_generated_between_the_markers(tmp_path):
-    results = tmp_path / 'out' / 'demo'
-    _write_summary(results, 'polar_two_link', experiment='polar_step')
-    _write_summary(results, 'force_1dof', experiment='force_steps', scenario='force_1dof', law='force',
-                   units={}, rms_error={}, max_error={}, final_error={}, steady_state_error={},
-                   force_rms_error={'x': 0.0123}, settling_time_s=None)
-    readme = tmp_path / 'README.md'
-    head, tail = '# robot_control\n\nintro\n\n## Results\n', '\n## After\n\nkept | as is\n'
-    readme.write_text(head + readme_results.BEGIN + '\nold table\n' + readme_results.END + tail)
-    assert readme_results.main(['--readme', str(readme), '--results', str(results), '--check']) == 1
-    assert 'old table' in readme.read_text()                        # --check changes nothing
-    assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
-    text = readme.read_text()
-    assert text.startswith(head + readme_results.BEGIN) and text.endswith(readme_results.END + tail)
-    assert 'old table' not in text
-    rows = [line for line in text.splitlines() if line.startswith('| ') and 'experiment' not in line]
-    assert len(rows) == 2
-    assert rows[0].startswith('| polar_step (polar_two_link) | polar_two_link | computed_torque | lockstep | 2 s |')
-    assert 'theta1 0.0123 rad, r 4.50e-04 m' in rows[0] and '0.964 s' in rows[0] and '412 Hz' in rows[0]
-    assert '0.85 / 4.2 ms' in rows[0]
-    assert rows[1].startswith('| force_steps (force_1dof) | force_1dof | force |') and 'x 0.0123 N' in rows[1]
-    assert readme_results.main(['--readme', str(readme), '--results', str(results), '--check']) == 0
-    assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
-    assert readme.read_text() == text                               # idempotent
-    assert rows[0].endswith(' | - |')                                  # no figures of its own
-    _write_summary(results, 'impedance_push', figures={'push_deflection_m': -0.01, 'push_return_overshoot': 0.0,
-                                                      'push_rotation_max_rad': 5.2e-4})
-    assert readme_results.main(['--readme', str(readme), '--results', str(results)]) == 0
-    [push] = [line for line in readme.read_text().splitlines() if line.startswith('| impedance_push')]
-    assert push.endswith(' | push deflection -0.01 m, push return overshoot 0, push rotation max 5.20e-04 rad |')
-
-
-def test_readme_results_refuses_a_readme_without_markers_and_bad_summaries(tmp_path):
-    readme = tmp_path / 'README.md'
-    readme.write_text('# no markers\n')
-    with pytest.raises(ValueError, match='^readme: needs the markers'):
-        readme_results.update(readme, tmp_path)
-    assert readme.read_text() == '# no markers\n'
-    readme.write_text(f'{readme_results.BEGIN}\n{readme_results.END}\n')
-    (tmp_path / 'bad').mkdir()
-    (tmp_path / 'bad' / 'summary.json').write_text('{"scenario": "x"}')
-    with pytest.raises(ValueError, match='missing keys'):
-        readme_results.update(readme, tmp_path)
-    (tmp_path / 'bad' / 'summary.json').unlink()
-    assert readme_results.update(readme, tmp_path) is True
-    assert 'No results yet' in readme.read_text()
-
-
-def test_readme_bench_table_is_the_benchs_results_md_between_its_markers(tmp_path):
-    from robot_control.tools import bench
-    results = {'law_us_ct_2dof_median': 7.5, 'lockstep_vs_pingpong_ratio': 0.55}
-    machine = {'cpu_model': 'AMD EPYC', 'cores': 2, 'python': '3.11.7', 'pinocchio': '4.1.0', 'pybullet': '3.2.7',
-               'date': '2026-11-22', 'load_average': [1.5, 1.25, 1.0]}
-    (tmp_path / 'bench').mkdir()
-    (tmp_path / 'bench' / 'results.md').write_text(bench.markdown(results, machine, quick=False))
-    readme = tmp_path / 'README.md'
-    head, mid, tail = '# r\n', '\n## Benchmarks\n', '\nprose after\n'
-    readme.write_text(head + readme_results.BEGIN + '\n' + readme_results.END + mid + readme_results.BENCH_BEGIN
-                      + '\n| hand | typed |\n' + readme_results.BENCH_END + tail)
-    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), '--bench', str(tmp_path / 'bench')]
-    assert readme_results.main(args) == 0
-    text = readme.read_text()
-    block = text[text.index(readme_results.BENCH_BEGIN):text.index(readme_results.BENCH_END)]
-    assert '| hand | typed |' not in text and text.endswith(readme_results.BENCH_END + tail)
-    assert 'Full run of `make bench` on 2026-11-22, AMD EPYC, 2 cores' in block
-    assert 'load average 1.50 / 1.25 / 1.00 at the end' in block
-    assert '| `law_us_ct_2dof_median` | 7.5 | met (<= 10) |' in block
-    assert '| `lockstep_vs_pingpong_ratio` | 0.55 | MISSED (>= 0.8) |' in block
-    assert readme_results.main(args + ['--check']) == 0
-
-def _robustness_summary():
-    fig = {
-        '1_controller_sigkill': {'brake_after_last_command_s': 0.051, 'drift_with_brakes_m': 0.0},
-        '2_bridge_sigkill': {'watchdog_error_after_s': 0.501},
-        '4_flood': {'publisher_rate_hz': 19999, 'rss_growth_mb': 1.7, 'answer_age_p99_ms': 4.88},
-        '6_second_publisher_robot_joint_commands': {'detected_after_s': 0.024, 'rogue_efforts_applied': 0,
-                                                    'rogue_messages_sent': 172},
-        '6_second_publisher_effort_controller/commands': {'detected_after_s': 0.007, 'rogue_efforts_applied': 0,
-                                                          'rogue_messages_sent': 168},
-        '7_unguarded': {'travel_m': 0.1088}, '7_lost_contact_processes': {'max_beyond_surface_m': 0.0111},
-        '8_library_computed_torque': {'worst_excess_overshoot': 0.0048},
-        '8_library_independent_joint': {'worst_excess_overshoot': 0.0192},
-        '8_saturated_step_processes': {'overshoot_saturated': [0.0005, 0.0019], 'overshoot_unsaturated': [0.0002, 0.0002]},
-        '8_without_anti_windup': {'overshoot': [0.2808, 0.2532]},
-    }
-    return {'faults_injected': 15, 'faults_survived': 15, 'efforts_checked': 41638, 'unsafe_commands_published': 0,
-            'bad_inputs_per_topic': {'controller joint_states': 4000, 'bridge robot_joint_commands': 4000},
-            'bad_inputs_total': 8000, 'figures': fig}
-
-
-def _generated_table(tmp_path, option, figures, begin, end):
-    """(README path, figures path, main's args, the README's text) after `main` generated the table between
-    `begin` and `end` (typed by hand before) from `figures` given as `option`."""
-    path = tmp_path / 'figures.json'
-    path.write_text(json.dumps(figures))
-    readme = tmp_path / 'README.md'
-    readme.write_text(readme_results.BEGIN + '\n' + readme_results.END + '\n## Figures\n'
-                      + begin + '\n| typed | by hand |\n' + end + '\n')
-    args = ['--readme', str(readme), '--results', str(tmp_path / 'none'), option, str(path)]
-    assert readme_results.main(args) == 0
-    text = readme.read_text()
-    assert '| typed | by hand |' not in text
-    return readme, path, args, text
-
-
-def test_readme_robustness_table_is_generated_from_a_whole_run_only(tmp_path):
-    summary = _robustness_summary()
-    readme, path, _, text = _generated_table(tmp_path, '--robustness', summary, readme_results.ROBUSTNESS_BEGIN,
-                                             readme_results.ROBUSTNESS_END)
-    for cell in ('| 15 / 15 |', '| 4,000 each, 8,000 in all (bridge robot_joint_commands, controller joint_states) |', '| 41,638 |', '| **0** |',
-                 '| 0.051 s of simulated time (command_timeout 0.05 s) / 0.0 mm |', '| 0.50 s (state_timeout 0.5 s)',
-                 'at 19,999 Hz for 5 s', '| 1.7 MB / 4.9 ms |', '| 7-24 ms / 0 of 340 |', '| 11.1 mm, with ERROR / 109 mm |',
-                 '| <= 1.9% / 28% |'):
-        assert cell in text, cell
-    del summary['figures']['1_controller_sigkill']                 # a run with -k: refused, naming what is missing
-    path.write_text(json.dumps(summary))
-    with pytest.raises(ValueError, match=r"partial run \(missing \['1_controller_sigkill'\]\)"):
-        readme_results.update(readme, tmp_path / 'none', robustness=path)
-
-def _two_hosts_figures():
-    """The figures test/e2e/test_two_hosts.py writes, of a whole, passing run."""
-    return {
-        'realtime_packets_per_s_a_to_b': 1147, 'realtime_packets_per_s_b_to_a': 2052,
-        'realtime_outage_longest_joint_states_gap_ms': 16.4, 'realtime_outage_sim_s_per_wall_s': 1.001,
-        'realtime_outage_longest_publish_ms_bridge': 1.08, 'realtime_outage_longest_publish_ms_controller': 1.21,
-        'lockstep_outage_longest_publish_ms_bridge': 0.25, 'lockstep_outage_longest_publish_ms_controller': 0.27,
-        'realtime_outage_brakes_command_age_ms': 51.0, 'realtime_outage_controller_error_after_s': 0.599,
-        'realtime_outage_commands_resume_after_s': 0.233, 'lockstep_outage_resume_after_s': 0.116,
-        'realtime_outage_resume_torque_minus_gravity_hold': 0.0, 'realtime_outage_rss_growth_mb_bridge': 3.59,
-        'realtime_outage_rss_growth_mb_controller': 0.81, 'lockstep_outage_republished_states': 12,
-        'lockstep_bit_identical_ticks_states': 1087, 'lockstep_bit_identical_ticks_commands': 1047,
-        'lockstep_static_peers_packets_a_to_b': 5378, 'lockstep_static_peers_multicast_packets': 0,
-        'realtime_subnet_multicast_packets': 28, 'tests_failed': 0, 'tests_run': 12}
-
-
-def test_readme_two_hosts_table_is_generated_from_a_whole_passing_run_only(tmp_path, capsys):
-    fig = _two_hosts_figures()
-    readme, path, args, text = _generated_table(tmp_path, '--two-hosts', fig, readme_results.TWO_HOSTS_BEGIN,
-                                                readme_results.TWO_HOSTS_END)
-    for cell in ('| 1,147 / 2,052 | > 500 |', '| 16.4 ms | < 50 ms |', '| 1.001 |',
-                 '| 1.08 / 1.21 ms; 0.25 / 0.27 ms | < 20 ms |', '| 51.0 ms |', '| 0.60 s |', '| 0.23 / 0.12 s |',
-                 '| 0.00 N m |', '| 3.6 / 0.8 MB |', '| 12 |', 'bit-identical (1,087 states, 1,047 commands)',
-                 '| 5,378 / 0 (the SUBNET run: 28) | > 500 / 0 |'):
-        assert cell in text, cell
-    del fig['realtime_outage_sim_s_per_wall_s']                     # a run with -k: refused, naming what is missing
-    with pytest.raises(ValueError, match=r"partial run \(missing \['realtime_outage_sim_s_per_wall_s'\]\)"):
-        readme_results.two_hosts_table(fig)
-    failed = dict(_two_hosts_figures(), tests_failed=2)
-    path.write_text(json.dumps(failed))
-    with pytest.raises(ValueError, match='2 tests failed'):
-        readme_results.update(readme, tmp_path / 'none', two_hosts=path)
-    before = readme.read_text()                                     # the command line leaves the table and says so
-    assert readme_results.main(args) == 0 and readme.read_text() == before
-    assert 'two-host figures of a run in which 2 tests failed: that table is left as it is' in capsys.readouterr().err
-
-
 def test_lost_ticks_are_reported_as_time_ranges():
     assert demo.time_ranges([]) == []
     assert demo.time_ranges([0.679, 0.68, 0.681, 0.9, 0.901, 1.5]) == [[0.679, 0.681], [0.9, 0.901], [1.5, 1.5]]
@@ -661,7 +493,7 @@ def test_lost_ticks_are_reported_as_time_ranges():
 def test_an_interrupt_inside_a_c_extension_still_counts_as_an_interrupt():
     try:
         try:
-            raise demo_procs.Interrupted('signal SIGTERM')
+            raise processes.Interrupted('signal SIGTERM')
         except KeyboardInterrupt as exc:
             raise TypeError('Unable to convert function return value to a Python type!') from exc
     except TypeError as exc:

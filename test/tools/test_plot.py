@@ -107,7 +107,7 @@ def test_task_axes_with_more_joints_than_axes():
     # torques far below the limits keep their own scale; the legend says the limit is off scale
     a1 = rows[2][0]
     assert a1.get_legend().get_texts()[1].get_text() == 'limit \u00b1320 (off scale)'
-    assert max(abs(v) for v in a1.get_ylim()) < 1.0
+    assert a1.get_ylim() == (-1.0, 1.0)  # zero torque: a flat line at 0 in +-1 N m (flat_limits)
 
 
 def iiwa_data(N=400):
@@ -147,6 +147,78 @@ def test_seven_joints_in_rows_of_four_without_offset_labels(tmp_path):
     assert [a.get_xlabel() for a in rows[-1]] == ['time [s]'] * 3 and rows[-2][3].get_xlabel() == 'time [s]'
 
 
+def one_joint(t, q, tau, **extra):
+    data = {'scenario': 'single_link', 't': t, 'joint_names': ['shoulder'], 'units': ['rad'], 'q': q,
+            'q_d': np.full_like(t, np.nan), 'tau': tau}
+    data.update(extra)
+    return data
+
+
+def y_ticks(ax):
+    """The y tick values as printed, and the axis' offset/multiplier text, after a draw."""
+    ax.figure.canvas.draw()
+    lo, hi = ax.get_ylim()
+    printed = [float(t.get_text().replace('\u2212', '-')) for t in ax.get_yticklabels()
+               if t.get_text() and lo <= t.get_position()[1] <= hi]
+    return printed, ax.yaxis.get_offset_text().get_text()
+
+
+@pytest.mark.parametrize('tau', [np.full(201, 1e-15), 1e-15 * np.sign(np.sin(np.arange(201.0)))],
+                         ids=['constant', 'sign flipping'])
+def test_a_round_off_torque_reads_as_zero(tau):
+    """A 1e-15 N m torque is 0 N m: y-limits around 0 at least +-1 N m wide, ticks without a
+    multiplier or offset (not a 1e-15 band that looks like chatter)."""
+    t = np.linspace(0.0, 2.0, 201)
+    fig = tracking_figure(one_joint(t, np.full_like(t, 0.3) + 0.1 * t, tau))
+    check_no_offset(fig)
+    torque = [a for a in fig.axes if a.get_ylabel() == 'torque [N m]'][0]
+    lo, hi = torque.get_ylim()
+    assert lo <= -1.0 + 1e-12 and hi >= 1.0 - 1e-12 and abs(lo + hi) < 1e-12
+    printed, offset = y_ticks(torque)
+    assert offset == '' and 0.0 in printed and max(abs(v) for v in printed) <= 1.0
+
+
+@pytest.mark.parametrize('value, unit, step', [(0.55, 'rad', 0.1), (-2.5, 'rad', 1.0), (40.0, 'N m', 10.0),
+                                               (0.0, 'rad', 1.0)])
+def test_a_constant_signal_is_a_flat_line_at_its_value(value, unit, step):
+    """An exactly constant signal, and the same with round-off jitter, is drawn flat at its value in
+    the middle of limits +- one step of its leading decade, printed without offset."""
+    t = np.linspace(0.0, 2.0, 201)
+    jitter = 1e-12 * max(1.0, abs(value)) * np.sin(np.arange(t.size))
+    for signal in (np.full_like(t, value), value + jitter):
+        q, tau = (signal, np.cos(t)) if unit == 'rad' else (np.sin(t), signal)
+        fig = tracking_figure(one_joint(t, q, tau))
+        ax = [a for a in fig.axes if a.get_ylabel() == ('position [rad]' if unit == 'rad' else 'torque [N m]')][0]
+        line = ax.get_lines()[0]
+        np.testing.assert_array_equal(line.get_ydata(), signal)
+        lo, hi = ax.get_ylim()
+        assert lo < value < hi
+        np.testing.assert_allclose([lo, hi], [value - step, value + step], rtol=1e-9, atol=1e-12)
+        printed, offset = y_ticks(ax)
+        assert offset == '' and min(abs(v - value) for v in printed) < 1e-9
+        check_no_offset(fig)
+
+
+def test_only_the_signals_given_are_drawn():
+    """No reference: no q_d line or legend entry and no error block; force all NaN: no force block;
+    a legend entry names the source of its signal; a commanded effort says so."""
+    t = np.linspace(0.0, 1.0, 101)
+    data = one_joint(t, np.sin(t), np.cos(t), tau_kind='commanded', f=np.full((101, 1), np.nan),
+                     sources={'q': '/joint_states', 'tau': '/robot_joint_commands'})
+    fig = tracking_figure(data)
+    assert [a.get_ylabel() for a in fig.axes] == ['position [rad]', 'torque [N m]']
+    pos, eff = fig.axes
+    assert [text.get_text() for text in pos.get_legend().get_texts()] == ['actual $q$ (/joint_states)']
+    assert [line.get_label() for line in pos.get_lines()] == ['actual $q$ (/joint_states)']
+    assert [text.get_text() for text in eff.get_legend().get_texts()] \
+        == ['$\\tau$ commanded (/robot_joint_commands)']
+    # an error without a reference (the controller's ~/error alone) keeps the error block
+    data.update(e=0.01 * np.cos(t)[:, None], sources={'e': '/controller/error'})
+    fig = tracking_figure(data)
+    assert [a.get_ylabel() for a in fig.axes] == ['position [rad]', 'error [rad]', 'torque [N m]']
+    assert [line.get_label() for line in fig.axes[1].get_lines()][-1] == '$e = q_d - q$ (/controller/error)'
+
+
 @pytest.mark.parametrize('change, message', [
     ({'q': np.zeros((601, 3))}, r"^data\['q'\]: expected shape \(601, 2\)"),
     ({'units': ['rad', 'deg']}, r"^data\['units'\]"),
@@ -154,6 +226,8 @@ def test_seven_joints_in_rows_of_four_without_offset_labels(tmp_path):
     ({'effort_limit': [1.0]}, r"^data\['effort_limit'\]"),
     ({'f_d': np.zeros((601, 2))}, r"^data\['f_d'\]"),
     ({'t': [0.0]}, r"^data\['t'\]"),
+    ({'tau_kind': 'measured'}, r"^data\['tau_kind'\]"),
+    ({'sources': {'x_d': '/ref'}}, r"^data\['sources'\]"),
 ])
 def test_bad_input_names_the_key(change, message):
     data = polar_data()

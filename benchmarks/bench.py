@@ -1,6 +1,6 @@
 """Benchmarks: control-law cost, closed-loop rate and latency over DDS, physics rate, against targets.
 
-    python -m robot_control.tools.bench [--quick] [--out out/bench] [--only b1,b2,b3,b4] [--domain-id N]
+    python -m benchmarks.bench [--quick] [--out out/bench] [--only b1,b2,b3,b4] [--domain-id N]
 
 Writes <out>/results.json (flat: metric name -> number), <out>/machine.json (CPU, cores, versions),
 <out>/results.md (the table for the README) and prints the table; child process logs go to
@@ -12,9 +12,9 @@ B1 law cost per call, us (median, p99): 2-DOF closed-form computed torque, 7-DOF
    torque, operational-space hybrid and Cartesian impedance (pose task space) through Pinocchio, the peer modern_robotics.ComputedTorque
    on the same iiwa and inputs (torques checked equal within 1e-8), the floor pinocchio.rnea (the iiwa's
    inverse dynamics). The targets are on each law's median over rnea's median of the same run (law_vs_rnea_*).
-B2 lockstep closed loop over DDS (robot_control.tools.bench_ros), against a bare rclpy ping-pong; also
+B2 lockstep closed loop over DDS (benchmarks.bench_ros), against a bare rclpy ping-pong; also
    the CPU time of both processes per step, which the other load of a shared machine hardly moves.
-B3 real time at 1 kHz (robot_control.tools.bench_ros): the polar arm, the iiwa under computed torque,
+B3 real time at 1 kHz (benchmarks.bench_ros): the polar arm, the iiwa under computed torque,
    hybrid control on the table and Cartesian impedance, each after a run of the floor (the bare exchange
    of states and commands at 1 kHz without physics and law); the targets hold for each run: missed
    periods against the floor's, p99 latency, real-time factor.
@@ -37,8 +37,8 @@ import time
 
 import numpy as np
 
-from robot_control.tools import demo_procs
-from robot_control.tools.bench_ros import REALTIME_RUNS
+from benchmarks.bench_ros import REALTIME_RUNS
+from robot_control.tools import processes
 
 #: B1's laws: case -> key stem of their figures
 LAWS = {'ct_2dof': 'law_us_ct_2dof', 'ct_7dof': 'law_us_ct_7dof', 'hybrid_7dof': 'law_us_hybrid_7dof',
@@ -133,7 +133,7 @@ def law_cases(count):
     import modern_robotics as mr
     import pinocchio as pin
 
-    from robot_control.tools.bench_mr import mr_chain
+    from benchmarks.bench_mr import mr_chain
     from robot_control.gains import ServoGains
     from robot_control.laws import computed_torque, hybrid, impedance
     from robot_control.models import for_scenario, make_model
@@ -381,7 +381,7 @@ PARTS = ('b1', 'b4', 'b2', 'b3')
 
 
 def parse_args(argv):
-    parser = argparse.ArgumentParser(prog='python -m robot_control.tools.bench', description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(prog='python -m benchmarks.bench', description=__doc__.split('\n')[0])
     parser.add_argument('--quick', action='store_true', help='short run (seconds), still writes every key')
     parser.add_argument('--out', default=os.path.join('out', 'bench'), help='output directory')
     parser.add_argument('--only', default=','.join(PARTS), help='comma-separated subset of b1,b2,b3,b4')
@@ -406,7 +406,7 @@ def run(parts, plan, domain_id, log, outdir):
         log('B4 world without ROS ...')
         results.update(bench_world(plan))
     if 'b2' in parts or 'b3' in parts:
-        from robot_control.tools import bench_ros
+        from benchmarks import bench_ros
         env = bench_ros.ros_env(domain_id)
         if 'b2' in parts:
             log(f'B2 lockstep over DDS (domain {env["ROS_DOMAIN_ID"]}) ...')
@@ -429,7 +429,7 @@ def main(argv=None):
         print(msg, file=sys.stderr, flush=True)
 
     signal.signal(signal.SIGTERM, _exit_on_sigterm)     # unwinds: child processes are stopped
-    claim = demo_procs.private_domain() if args.domain_id is None else None
+    claim = processes.private_domain() if args.domain_id is None else None
     try:
         domain_id = args.domain_id if claim is None else claim.acquire()
         results = run(args.only, plan, domain_id, log, args.out)

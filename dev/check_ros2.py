@@ -2,7 +2,7 @@
 users do. Needs a `ros2` command on PATH (a sourced ROS 2 Jazzy install, or a stand-in built from
 the same sources); `make test` never runs it.
 
-    python -m robot_control.tools.check_ros2 [--keep-logs]
+    python -m dev.check_ros2 [--keep-logs]
 
 What it does: `colcon build` of this checkout into a temporary directory; `source
 install/setup.bash` for every child; ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID
@@ -24,11 +24,11 @@ import sys
 import tempfile
 from pathlib import Path
 
-from robot_control.tools import demo_procs
-from robot_control.tools.ros2_cli import CheckFailed, Ros2, colcon_command, run_to_end, sourced_env, tail
-from robot_control.tools.ros2_checks import LAUNCH_CHECKS, RUN_CHECKS, LaunchSession, RunSession
+from dev.ros2_checks import LAUNCH_CHECKS, RUN_CHECKS, LaunchSession, RunSession
+from dev.ros2_cli import CheckFailed, Ros2, colcon_command, run_to_end, sourced_env, tail
+from robot_control.tools import processes
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = 'robot_control'
 #: domain ids of this check: clear of the test suite's 1..92 and of the demo's 101..199
 DOMAIN_IDS = tuple(range(93, 101))
@@ -106,12 +106,12 @@ def run_all(report, domain_id, tmp):
     if not report.check('colcon build', build, tmp):
         return
     try:
-        env = sourced_env(tmp / 'install' / 'setup.bash', demo_procs.ros_env(domain_id))
+        env = sourced_env(tmp / 'install' / 'setup.bash', processes.ros_env(domain_id))
     except CheckFailed as exc:
         report.fail('source install/setup.bash', str(exc))
         return
     share = tmp / 'install' / PACKAGE / 'share' / PACKAGE
-    with demo_procs.ProcessSet() as procs:
+    with processes.ProcessSet() as procs:
         ros2 = Ros2(env, tmp / 'logs', procs)
         try:
             if not report.check('ros2 daemon start', lambda: tail(ros2.start_daemon(), 1)):
@@ -137,16 +137,16 @@ def main(argv=None):
         return EXIT_NO_ROS2
     report = Report()
     tmp = Path(tempfile.mkdtemp(prefix='check-ros2-'))
-    old = demo_procs.install_signal_handlers()
+    old = processes.install_signal_handlers()
     try:
-        with demo_procs.DomainClaim(DOMAIN_IDS, start=os.getpid()) as claim:
+        with processes.DomainClaim(DOMAIN_IDS, start=os.getpid()) as claim:
             print(f'check-ros2: ROS_DOMAIN_ID={claim.domain_id}, ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST', flush=True)
             run_all(report, claim.domain_id, tmp)
     except KeyboardInterrupt:
         report.fail('interrupted', 'every process it started was stopped')
     finally:
-        demo_procs.stop_all_children()
-        demo_procs.restore_signal_handlers(old)
+        processes.stop_all_children()
+        processes.restore_signal_handlers(old)
     print(report.summary(), flush=True)
     if report.failed or opts.keep_logs:
         print(f'check-ros2: build and logs kept in {tmp}', flush=True)

@@ -1,4 +1,4 @@
-"""Benchmarks B2 and B3 of robot_control.tools.bench: closed loops over DDS between separate processes.
+"""Benchmarks B2 and B3 of benchmarks.bench: closed loops over DDS between separate processes.
 
 The bridge (`python -m sim_bridge.bridge_node`) and the controller (`python -m
 robot_control.ros.controller_node`) run as the user runs them, `--ros-args --params-file
@@ -10,7 +10,7 @@ samples wait in DDS until the bench asks for them every few ms, and nothing is d
 watching costs the loop next to nothing.
 
 B2 lockstep: steps/s = (stamp advance / control period) / (reception time advance) over a
-window, for polar_two_link, iiwa and the bare ping-pong (robot_control.tools.bench_pingpong) with the
+window, for polar_two_link, iiwa and the bare ping-pong (benchmarks.bench_pingpong) with the
 same messages, QoS and executors, interleaved round by round; medians over the rounds.
 B3 realtime at 1 kHz, per run of REALTIME_RUNS (the polar arm; the iiwa under computed torque, under hybrid
 control pressing on the table and under Cartesian impedance, with the parameters of the demo's
@@ -21,7 +21,7 @@ experiments iiwa_hybrid_line and impedance_push), from the samples of the whole 
   a period whose command never arrives is a miss (a missed period);
 - real-time factor = simulated time advance / publication time advance of the states.
 The floor of B3: the same figures, counted the same way by the same observer, of the bare exchange
-(robot_control.tools.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
+(benchmarks.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
 physics, no law), run once before each run of REALTIME_RUNS and pooled (missed periods and periods
 summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
 Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance.
@@ -39,11 +39,11 @@ import numpy as np
 
 from robot_control import units
 from robot_control import scenarios
-from robot_control.tools.demo_procs import die_with_parent
+from robot_control.tools.processes import die_with_parent
 
 NS = units.NS_PER_S
 PERIOD_NS = 1_000_000                 # control period of every DDS run, 1 ms
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STOP_GRACE_S = 2.0                    # SIGTERM -> SIGKILL
 START_TIMEOUT_S = 60.0                # first sample after the processes start
 POLL_S = 0.01
@@ -106,12 +106,10 @@ class Children:
 
 def node_executor(module):
     """The executor `module`'s main() spins by default: the default of its --executor option
-    ('events' or 'single'), 'single' (SingleThreadedExecutor) for a node without that option."""
-    parse = getattr(importlib.import_module(module), '_parse_args', None)
-    try:
-        return getattr(parse([]), 'executor', 'single') if parse else 'single'
-    except SystemExit:
-        return 'single'
+    ('events' or 'single'; a node's ENTRY, robot_control.ros.entry), 'single' (SingleThreadedExecutor)
+    for a module without one."""
+    node_entry = getattr(importlib.import_module(module), 'ENTRY', None)
+    return node_entry.options([module]).executor if node_entry else 'single'
 
 
 #: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)
@@ -131,7 +129,7 @@ def experiment_params(name):
     return args(exp.bridge), args(demo.controller_params(exp))
 
 
-#: the bare exchanges of robot_control.tools.bench_pingpong: kind -> (the scenario whose joints the messages
+#: the bare exchanges of benchmarks.bench_pingpong: kind -> (the scenario whose joints the messages
 #: carry, the role that stands for the bridge, the role that stands for the controller)
 BARE = {'pingpong': ('polar_two_link', 'ping', 'pong'), 'floor': ('iiwa', 'tick', 'echo')}
 
@@ -144,7 +142,7 @@ def node_commands(kind, mode, experiment=None):
         scenario, *roles = BARE[kind]
         joints = list(scenarios.get(scenario).joints)
         ends = zip(roles, ('sim_bridge.bridge_node', 'robot_control.ros.controller_node'))
-        return [(role, ['-m', f'{__package__}.bench_pingpong', role, '--joints', *joints, '--period',
+        return [(role, ['-m', 'benchmarks.bench_pingpong', role, '--joints', *joints, '--period',
                         str(PERIOD_NS / NS), '--executor', node_executor(module)]) for role, module in ends]
     params = os.path.join(ROOT, 'config', f'{kind}.yaml')
     bridge_extra, controller_extra = experiment_params(experiment)

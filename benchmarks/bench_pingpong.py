@@ -1,9 +1,9 @@
 """The transport floors of benchmarks B2 and B3: bare rclpy exchanges between two processes.
 
-    python -m robot_control.tools.bench_pingpong ping --joints theta1 r [--executor events] [--ros-args ...]
-    python -m robot_control.tools.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
-    python -m robot_control.tools.bench_pingpong tick --joints a b c [--period 0.001] [--executor events]
-    python -m robot_control.tools.bench_pingpong echo --joints a b c [--executor events]
+    python -m benchmarks.bench_pingpong ping --joints theta1 r [--executor events] [--ros-args ...]
+    python -m benchmarks.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
+    python -m benchmarks.bench_pingpong tick --joints a b c [--period 0.001] [--executor events]
+    python -m benchmarks.bench_pingpong echo --joints a b c [--executor events]
 
 B2 (lockstep), `ping` and `pong`:
 Same messages, topics, QoS (the nodes' publisher and subscription profiles) and stamps as the
@@ -153,7 +153,7 @@ ROLES = {'ping': lambda o: Ping(o.joints, round(o.period * NS)), 'pong': lambda 
 
 
 def parse_args(argv):
-    parser = argparse.ArgumentParser(prog='python -m robot_control.tools.bench_pingpong', description=__doc__.split('\n')[0])
+    parser = argparse.ArgumentParser(prog='python -m benchmarks.bench_pingpong', description=__doc__.split('\n')[0])
     parser.add_argument('role', choices=tuple(ROLES))
     parser.add_argument('--joints', nargs='+', required=True, help='joint names in the messages')
     parser.add_argument('--executor', choices=('single', 'events'), default='single')

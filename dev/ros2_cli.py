@@ -1,5 +1,5 @@
 """The `ros2` command line driven from Python, as a user types it: each call a child process in a
-process group of its own (robot_control.tools.demo_procs), bounded by a timeout, its output
+process group of its own (robot_control.tools.processes), bounded by a timeout, its output
 (stdout and stderr together) kept in a log file and returned as text.
 
 The parsers read the CLI's own printed forms (Jazzy's ros2cli):
@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from robot_control.tools.demo_procs import ManagedProcess
+from robot_control.tools.processes import ManagedProcess
 from robot_control.units import stamp_ns
 
 #: s a one-shot command (topic echo, param get, service call, ...) may take
@@ -91,7 +91,7 @@ def run_to_end(name, argv, env, log_path, timeout, cwd=None):
 
 class Ros2:
     """`ros2 ...` in environment `env`; logs in `log_dir`; long-running children join `procs`
-    (a demo_procs.ProcessSet, whose stop_all() ends them)."""
+    (a processes.ProcessSet, whose stop_all() ends them)."""
 
     def __init__(self, env, log_dir, procs):
         self.env = env

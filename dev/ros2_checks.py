@@ -1,4 +1,4 @@
-"""The checks of `make check-ros2` (robot_control.tools.check_ros2), each one a function of a
+"""The checks of `make check-ros2` (dev.check_ros2), each one a function of a
 session that returns what it saw (one line) or raises CheckFailed with the reason.
 
 LaunchSession: `ros2 launch robot_control scenario.launch.py scenario:=iiwa mode:=lockstep
@@ -10,9 +10,9 @@ import signal
 
 import yaml
 
+from dev.ros2_cli import CheckFailed, parse_rates, parse_value, tail
 from robot_control import scenarios
-from robot_control.tools.demo_procs import ProcessError
-from robot_control.tools.ros2_cli import CheckFailed, parse_rates, parse_value, tail
+from robot_control.tools.processes import ProcessError
 from robot_control.units import seconds
 
 PACKAGE = 'robot_control'
