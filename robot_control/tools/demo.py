@@ -100,12 +100,13 @@ def realism_profile(scenario, realism):
 
 
 def param_value(value):
-    """A parameter value as a `-p name:=value` YAML literal (floats keep a decimal point, ints stay integers)."""
+    """A parameter value as a `-p name:=value` YAML literal (numbers are doubles with a decimal point, but an
+    experiments.Integer)."""
     if isinstance(value, bool):
         return 'true' if value else 'false'
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
+    if isinstance(value, experiments.Integer):
+        return str(int(value))
+    if isinstance(value, (int, float)):
         return repr(float(value))
     if isinstance(value, (list, tuple)):
         return '[' + ', '.join(param_value(v) for v in value) + ']'

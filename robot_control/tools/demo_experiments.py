@@ -45,6 +45,10 @@ JOINT_UNITS = {
 CONTROL_PERIOD = 0.001   # s, the configs' control_period: a step reaches its goal in one period
 
 
+class Integer(int):
+    """The value of an integer parameter (e.g. delay.measurement_ticks): a plain number is given as a double."""
+
+
 @dataclass(frozen=True)
 class TrajectorySpec:
     """A JointTrajectory in the scenario's joint order: points at t_start + times (s)."""
@@ -450,9 +454,9 @@ GAP_EFFECTS = {
                  {'friction.coulomb': [1.0] * 4 + [0.5] * 3, 'friction.viscous': [0.5] * 7}),
     'payload': ('an unmodelled 2 kg payload 5 cm out on the flange', dict(PAYLOAD)),
     'masses': ('every link 10 % heavier than the model', {'sim_params.mass_scale': [1.1] * 7}),
-    'late': ('the state one tick late', {'delay.measurement_ticks': 1}),
+    'late': ('the state one tick late', {'delay.measurement_ticks': Integer(1)}),
     'noise': ('position noise 1e-4 rad, velocity noise 5e-3 rad/s',
-              {'noise.position_std': [1e-4] * 7, 'noise.velocity_std': [5e-3] * 7, 'seed': 1}),
+              {'noise.position_std': [1e-4] * 7, 'noise.velocity_std': [5e-3] * 7, 'seed': Integer(1)}),
 }
 #: the iiwa_gap variants in the table's order: the twin, each effect alone, all together
 GAP_VARIANTS = ('twin', *GAP_EFFECTS, 'all')

@@ -12,11 +12,11 @@ def _files(argv):
 def test_typical_stacks_the_scenarios_profile_after_its_file_and_before_the_overrides():
     profile = demo.realism_profile('iiwa', 'typical')
     assert profile == demo.ROOT / 'config' / 'realism' / 'iiwa_typical.yaml'
-    argv = demo.node_argv('sim_bridge.bridge_node', 'iiwa', {'delay.measurement_ticks': 1, 'payload.mass': 2.0},
-                          profiles=[profile])
+    argv = demo.node_argv('sim_bridge.bridge_node', 'iiwa', {'delay.measurement_ticks': exps.Integer(1),
+                                                             'payload.mass': 2}, profiles=[profile])
     assert _files(argv) == [str(demo.config_path('iiwa')), str(profile)]
     assert argv.index(str(profile)) < argv.index('delay.measurement_ticks:=1')   # -p wins over every file
-    assert 'payload.mass:=2.0' in argv                                          # an integer stays one, a double not
+    assert 'payload.mass:=2.0' in argv                                  # a number is a double, but an Integer
 
 
 def test_ideal_and_a_scenario_without_a_profile_run_the_scenario_alone():
