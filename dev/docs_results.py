@@ -7,7 +7,11 @@
 Each table lives in one page, between a pair of marker lines, and is rebuilt from its input:
 
 - docs/results.md, `<!-- results:begin/end -->`: `out/demo/*/summary.json` (`python -m robot_control.demo --all`);
-- docs/results.md, `<!-- plots:begin/end -->`: `docs/figures/<experiment>.png`, copied from out/demo/*/tracking.png;
+- docs/results.md, `<!-- typical:begin/end -->`: the runs on the typical robot (`--realism typical`, their summary's
+  `realism`) beside their ideal twins, from the same summaries;
+- docs/results.md, `<!-- gap:begin/end -->`: the iiwa_gap_* experiments (`--experiment iiwa_gap_<variant>`);
+- docs/results.md, `<!-- plots:begin/end -->`: `docs/figures/<experiment>.png` (`<experiment>_typical.png` for the
+  typical robot), copied from out/demo/*/tracking.png;
 - docs/benchmarks.md, `<!-- bench:begin/end -->`: `out/bench/results.md` (`make bench`);
 - docs/robustness.md, `<!-- robustness:begin/end -->`: `out/robustness/summary.json`
   (`pytest test/e2e/test_robustness.py`);
@@ -17,7 +21,9 @@ Each table lives in one page, between a pair of marker lines, and is rebuilt fro
 A table whose input is absent stays as it is. Nothing outside the markers changes; a page without its
 markers is an error. The robustness table needs a whole run of test_robustness.py and the two-host
 table a whole, passing run of test_two_hosts.py (a partial run is an error naming the missing figures;
-the command line leaves that table as it is and says so). The demo's tracking plots are copied into
+the command line leaves that table as it is and says so). The results table holds the ideal runs but the
+iiwa_gap_* ones (their own table) and is rebuilt only when some are found, so a directory of typical or gap
+runs alone leaves it. The demo's tracking plots are copied into
 docs/figures/ as 64-colour PNGs (a fifth of the size, the same lines) and listed under `plots`.
 `--check` changes nothing and exits 1 when a page is not up to date with the inputs found.
 """
@@ -28,7 +34,7 @@ import sys
 from pathlib import Path
 
 from robot_control.tools import demo_experiments
-from robot_control.tools.demo_experiments import EXPERIMENTS
+from robot_control.tools.demo_experiments import EXPERIMENTS, GAP_EFFECTS, GAP_MOVE, GAP_VARIANTS, REALISM
 
 BEGIN = '<!-- results:begin -->'
 END = '<!-- results:end -->'
@@ -40,6 +46,12 @@ TWO_HOSTS_BEGIN = '<!-- two-hosts:begin -->'
 TWO_HOSTS_END = '<!-- two-hosts:end -->'
 PLOTS_BEGIN = '<!-- plots:begin -->'
 PLOTS_END = '<!-- plots:end -->'
+TYPICAL_BEGIN = '<!-- typical:begin -->'
+TYPICAL_END = '<!-- typical:end -->'
+GAP_BEGIN = '<!-- gap:begin -->'
+GAP_END = '<!-- gap:end -->'
+#: the experiment of each iiwa_gap variant
+GAP_EXPERIMENTS = {f'iiwa_gap_{variant}': variant for variant in GAP_VARIANTS}
 #: the page of each table (in the docs directory)
 RESULTS_PAGE, BENCH_PAGE = 'results.md', 'benchmarks.md'
 ROBUSTNESS_PAGE, TWO_HOSTS_PAGE = 'robustness.md', 'networking.md'
@@ -138,6 +150,16 @@ def load_summaries(results_dir):
     return sorted(found, key=key)
 
 
+def realism_of(summary):
+    """The realism of a run's summary ('ideal' for a summary from before runs recorded it)."""
+    return summary.get('realism') or 'ideal'
+
+
+def plot_name(experiment, realism='ideal'):
+    """The name of an experiment's plot in docs/figures: <experiment>, <experiment>_typical."""
+    return experiment if realism == 'ideal' else f'{experiment}_{realism}'
+
+
 def row(name, s):
     units = s.get('units', {})
     exp = s.get('experiment') or name
@@ -162,6 +184,76 @@ def table(summaries):
     lines += [row(name, s) for name, s in summaries]
     lines.append('')
     return '\n'.join(lines)
+
+
+def split(summaries):
+    """(ideal runs of the results table, typical runs, iiwa_gap runs) of load_summaries' [(name, summary)]."""
+    ideal = [(n, s) for n, s in summaries if realism_of(s) == 'ideal' and s.get('experiment') not in GAP_EXPERIMENTS]
+    typical = [(n, s) for n, s in summaries if realism_of(s) != 'ideal']
+    gap = [(n, s) for n, s in summaries if realism_of(s) == 'ideal' and s.get('experiment') in GAP_EXPERIMENTS]
+    return ideal, typical, gap
+
+
+TYPICAL_COLUMNS = ('experiment', 'scenario', 'law', 'realism profile', 'RMS error ideal / typical',
+                   'final error ideal / typical', 'force RMS error ideal / typical', 'saturated ticks ideal / typical')
+
+
+def typical_table(summaries):
+    """The markdown between the typical markers: one row per typical run (summaries: load_summaries'), its
+    figures beside those of the ideal run of the same experiment found among `summaries` ('-' without one)."""
+    ideal = {s.get('experiment'): s for _, s in summaries if realism_of(s) == 'ideal'}
+    lines = ['', GENERATED.format(source='`out/demo/*_typical/summary.json` and their ideal twins',
+                                  command='`python -m robot_control.demo --experiment NAME --realism typical`'), '',
+             '| ' + ' | '.join(TYPICAL_COLUMNS) + ' |', '|' + '---|' * len(TYPICAL_COLUMNS)]
+    cells = (lambda s: per_coordinate(s['rms_error'], s.get('units')),
+             lambda s: per_coordinate(s['final_error'], s.get('units')),
+             lambda s: per_coordinate(s['force_rms_error'], unit='N') if s.get('force_rms_error') else '-',
+             lambda s: number(s['saturated_ticks']))
+    for name, s in summaries:
+        if realism_of(s) == 'ideal':
+            continue
+        twin = ideal.get(s.get('experiment'))
+        profile = f'`{s["realism_profile"]}`' if s.get('realism_profile') else 'none (the ideal robot)'
+        row_cells = (s.get('experiment') or name, s['scenario'], s.get('law', '-'), profile,
+                     *(' / '.join('-' if x is None else cell(x) for x in (twin, s)) for cell in cells))
+        lines.append('| ' + ' | '.join(str(c).replace('|', '\\|') for c in row_cells) + ' |')
+    return '\n'.join(lines + [''])
+
+
+GAP_COLUMNS = ('variant', 'the true robot has', 'final error', 'RMS error', 'joints that stick (never left the start)',
+               'saturated ticks')
+#: rad: a joint sticks when its final and largest error are both the whole move, GAP_MOVE, within this (measurement
+#: noise included)
+STUCK_TOL = 2e-3
+
+
+def short_joint(name):
+    """'j5' of lbr_iiwa_joint_5."""
+    return 'j' + name.rsplit('_', 1)[-1]
+
+
+def gap_table(summaries):
+    """The markdown between the gap markers: the iiwa_gap runs among `summaries` in GAP_VARIANTS order, the
+    largest final and RMS error over the joints (and where), the joints that stuck: final and largest error both
+    GAP_MOVE within STUCK_TOL (a joint that moved, or sagged past its start, differs)."""
+    runs = {GAP_EXPERIMENTS[s['experiment']]: s for _, s in summaries
+            if realism_of(s) == 'ideal' and s.get('experiment') in GAP_EXPERIMENTS}
+    what = {'twin': "nothing: the model's twin", 'all': 'every effect above together',
+            **{k: v[0] for k, v in GAP_EFFECTS.items()}}
+    lines = ['', GENERATED.format(source='`out/demo/iiwa_gap_*/summary.json`',
+                                  command='`python -m robot_control.demo --experiment iiwa_gap_<variant>`'), '',
+             '| ' + ' | '.join(GAP_COLUMNS) + ' |', '|' + '---|' * len(GAP_COLUMNS)]
+
+    def largest(values):
+        joint = max(values, key=lambda k: abs(values[k]))
+        return f'{number(abs(values[joint]), "rad")} ({short_joint(joint)})'
+    for variant in (v for v in GAP_VARIANTS if v in runs):
+        s = runs[variant]
+        stuck = [short_joint(j) for j, e in s['final_error'].items()
+                 if abs(e - GAP_MOVE) < STUCK_TOL and abs(s['max_error'][j] - GAP_MOVE) < STUCK_TOL]
+        lines.append(f'| {variant} | {what[variant]} | {largest(s["final_error"])} | {largest(s["rms_error"])} | '
+                     f'{", ".join(stuck) or "none"} | {number(s["saturated_ticks"])} |')
+    return '\n'.join(lines + [''])
 
 
 def bench_table(bench_dir):
@@ -296,7 +388,7 @@ def copy_plots(results_dir, figures_dir):
         if not source.is_file():
             continue
         figures_dir.mkdir(parents=True, exist_ok=True)
-        experiment = summary.get('experiment') or name
+        experiment = plot_name(summary.get('experiment') or name, realism_of(summary))
         with Image.open(source) as image:
             small = image.convert('RGB').quantize(colors=PLOT_COLOURS, method=Image.Quantize.MEDIANCUT,
                                                   dither=Image.Dither.NONE)
@@ -309,15 +401,22 @@ def plots(figures_dir):
     """The markdown between the plots markers: each experiment's plot in figures_dir, in the demo's order,
     under its name, scenario and title. ValueError for a plot named after no experiment."""
     found = {path.stem for path in Path(figures_dir).glob('*.png')}
-    unknown = sorted(found - set(EXPERIMENTS))
+    unknown = sorted(found - {plot_name(n, r) for n in EXPERIMENTS for r in REALISM})
     if unknown:
         raise ValueError(f'{figures_dir}: plots named after no experiment: {unknown}')
     lines = ['', GENERATED.format(source=f'`docs/{FIGURES}/*.png`', command='copied from `out/demo/*/tracking.png` '
-                                  'of `python -m robot_control.demo --all`'), '']
-    for name in (n for n in EXPERIMENTS if n in found):
+                                  'of `python -m robot_control.demo --all`, and `--realism typical`'), '']
+    for name in EXPERIMENTS:
+        names = [(r, plot_name(name, r)) for r in REALISM if plot_name(name, r) in found]
+        if not names:
+            continue
         experiment = demo_experiments.get(name)
-        lines += [f'### `{name}` ({experiment.scenario})', '', f'{experiment.title}.', '',
-                  f'![{name}]({FIGURES}/{name}.png)', '']
+        lines += [f'### `{name}` ({experiment.scenario})', '', f'{experiment.title}.', '']
+        for realism, plot in names:
+            if realism != 'ideal':
+                lines += [f'On the {realism} robot (`config/realism/{experiment.scenario}_{realism}.yaml` stacked on '
+                          'the bridge):', '']
+            lines += [f'![{plot}]({FIGURES}/{plot}.png)', '']
     if not found:
         lines += ['No plots yet: run `python -m robot_control.demo --all`, then `python -m dev.docs_results`.', '']
     return '\n'.join(lines)
@@ -354,10 +453,13 @@ def update(docs_dir, results_dir=None, check=False, bench_dir=None, robustness=N
     with `on_partial` given leave that table as it is and call on_partial(the error's text)."""
     pages = Pages(docs_dir)
     summaries = load_summaries(results_dir) if results_dir is not None and Path(results_dir).is_dir() else []
-    if summaries:
-        pages.put(RESULTS_PAGE, table(summaries), BEGIN, END)
-        if not check:
-            copy_plots(results_dir, pages.dir / FIGURES)
+    ideal, typical, gap = split(summaries)
+    for found, body, begin, end in ((ideal, table, BEGIN, END), (typical, typical_table, TYPICAL_BEGIN, TYPICAL_END),
+                                    (gap, gap_table, GAP_BEGIN, GAP_END)):
+        if found:
+            pages.put(RESULTS_PAGE, body(ideal if body is table else summaries), begin, end)
+    if summaries and not check:
+        copy_plots(results_dir, pages.dir / FIGURES)
     pages.put(RESULTS_PAGE, plots(pages.dir / FIGURES), PLOTS_BEGIN, PLOTS_END)
     bench = None if bench_dir is None else bench_table(bench_dir)
     if bench is not None:

@@ -4,6 +4,7 @@
     python -m robot_control.demo --scenario iiwa --mode realtime --duration 5
     python -m robot_control.demo --experiment disturbance_pid --no-plot
     python -m robot_control.demo --all                               # every experiment, for docs/results.md
+    python -m robot_control.demo --experiment iiwa_ptp --realism typical   # the arm as published, not as modelled
 
 A run starts two OS processes, `sim_bridge_node` (PyBullet: the robot) and `controller_node`,
 each with `--ros-args --params-file config/<scenario>.yaml` plus the experiment's overrides, on a
@@ -13,6 +14,8 @@ progress line per second, stops every process it started (by pid, also on Ctrl-C
 error), prints a summary table and writes `out/demo/<name>/`: `summary.json` (the metrics of
 robot_control.tools.demo_metrics, the run's domain, expected ticks and lost messages),
 `tracking.png`, `bag/` (mcap, every topic) and `logs/` (the two nodes' output).
+`--realism typical` also gives the bridge config/realism/<scenario>_typical.yaml after the scenario's file
+(friction, masses, sensor noise and delay; the controller keeps its model), into out/demo/<name>_typical/.
 
 Modes: `lockstep` (the default) is deterministic -- the bridge steps only when the command for the
 current state has arrived, so the same run gives the same numbers every time, on any machine; it
@@ -74,17 +77,35 @@ class RunResult:
 
 def config_path(scenario):
     """config/<scenario>.yaml of this checkout, else of the installed package (share/robot_control/config)."""
+    path = _config_file(f'{scenario}.yaml')
+    if path is None:
+        raise ValueError(f'scenario: no parameter file {scenario}.yaml in {ROOT / "config"} or the install')
+    return path
+
+
+def _config_file(relative):
+    """config/<relative> of this checkout, else of the installed package; None when neither has it."""
     for base in (ROOT / 'config', Path(sys.prefix) / 'share' / 'robot_control' / 'config'):
-        path = base / f'{scenario}.yaml'
-        if path.is_file():
-            return path
-    raise ValueError(f'scenario: no parameter file {scenario}.yaml in {ROOT / "config"} or the install')
+        if (base / relative).is_file():
+            return base / relative
+    return None
+
+
+def realism_profile(scenario, realism):
+    """The parameter file the bridge stacks after the scenario's for `realism` (demo_experiments.REALISM):
+    None for 'ideal' and for a scenario without a profile, else config/realism/<scenario>_<realism>.yaml."""
+    if realism not in experiments.REALISM:
+        raise ValueError(f'realism: expected one of {experiments.REALISM}, got {realism!r}')
+    return None if realism == 'ideal' else _config_file(f'realism/{scenario}_{realism}.yaml')
 
 
 def param_value(value):
-    """A parameter value as a `-p name:=value` YAML literal (doubles keep a decimal point)."""
+    """A parameter value as a `-p name:=value` YAML literal (numbers are doubles with a decimal point, but an
+    experiments.Integer)."""
     if isinstance(value, bool):
         return 'true' if value else 'false'
+    if isinstance(value, experiments.Integer):
+        return str(int(value))
     if isinstance(value, (int, float)):
         return repr(float(value))
     if isinstance(value, (list, tuple)):
@@ -92,8 +113,12 @@ def param_value(value):
     return str(value)
 
 
-def node_argv(module, scenario, params, extra=()):
+def node_argv(module, scenario, params, extra=(), profiles=()):
+    """The command line of `module` with the scenario's parameter file, then each of `profiles` (stacked: a later
+    file sets only the names it holds), then `params` as -p overrides (they win over every file)."""
     argv = procs.python_module(module, *extra, '--ros-args', '--params-file', str(config_path(scenario)))
+    for path in profiles:
+        argv += ['--params-file', str(path)]
     for name, value in params.items():
         argv += ['-p', f'{name}:={param_value(value)}']
     return argv
@@ -170,13 +195,14 @@ class Progress:
 
 
 def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, plot=True, domain_id=None,
-        write=print, keep_data=True):
+        write=print, keep_data=True, realism='ideal'):
     """Run `experiment` (an Experiment or a name) end to end; returns a RunResult. See the module docstring.
 
     mode 'lockstep' | 'realtime'; duration s of simulation (default the experiment's); out_dir default
     out/demo/<name>; record: bag/; plot: tracking.png; domain_id: ROS_DOMAIN_ID of the run (default: a
     free one of procs.PRIVATE_DOMAIN_IDS); write: print-like function for progress (None: quiet);
-    keep_data: keep the per-tick RunData in the result.
+    keep_data: keep the per-tick RunData in the result; realism: 'ideal' or 'typical' (the bridge also reads
+    realism_profile(scenario, realism); out_dir default out/demo/<name>_typical).
     """
     if isinstance(experiment, str):
         experiment = experiments.get(experiment)
@@ -185,20 +211,23 @@ def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, p
     duration = experiment.duration if duration is None else float(duration)
     if not duration > 0:
         raise ValueError(f'duration: expected > 0 s, got {duration}')
-    out_dir = Path(out_dir if out_dir is not None else ROOT / 'out' / 'demo' / experiments.output_name(experiment.name))
+    profile = realism_profile(experiment.scenario, realism)
+    out_dir = Path(out_dir if out_dir is not None
+                   else ROOT / 'out' / 'demo' / experiments.output_name(experiment.name, realism))
     out_dir.mkdir(parents=True, exist_ok=True)
     claim = None
     if domain_id is None:   # a private id, claimed for the run
         claim = procs.private_domain()
         domain_id = claim.acquire()
     try:
-        return _run(experiment, mode, duration, out_dir, record, plot, int(domain_id), write, keep_data)
+        return _run(experiment, mode, duration, out_dir, record, plot, int(domain_id), write, keep_data,
+                    (realism, profile))
     finally:
         if claim is not None:
             claim.release()
 
 
-def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data):
+def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data, realism):
     from robot_control.tools import demo_ros
     env = procs.ros_env(domain_id)
     # this process joins the same private domain, loopback only, before rclpy reads the environment
@@ -218,9 +247,10 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
     with LiveRun(domain_id, env, out_dir / 'logs', say) as live:
         if record:
             live.start_recording(out_dir / 'bag')
-        say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s): ROS_DOMAIN_ID={domain_id}, '
-            'discovery LOCALHOST', flush=True)
-        live.start_nodes(scenario, {'mode': mode, **experiment.bridge}, controller_params(experiment))
+        say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s, {describe_realism(*realism)}): '
+            f'ROS_DOMAIN_ID={domain_id}, discovery LOCALHOST', flush=True)
+        live.start_nodes(scenario, {'mode': mode, **experiment.bridge}, controller_params(experiment),
+                         [realism[1]] if realism[1] else [])
         origin_ns = live.wait_for_first_tick(mode)
         live.send_references(joints, experiment.trajectory, origin_ns)
         changes = BridgeSchedule(experiment.bridge_events, origin_ns, say)
@@ -243,9 +273,27 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
                               limits, lockstep=mode == 'lockstep')
         data.events = changes.applied
     result.summary = summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say)
-    write_outputs(out_dir, result.summary, data, experiment, f'{law}, {mode}' if plot else None)
+    result.summary['realism'] = realism[0]
+    result.summary['realism_profile'] = None if realism[1] is None else relative_to_root(realism[1])
+    title = f'{law}, {mode}' + ('' if realism[0] == 'ideal' else f', {realism[0]} robot')
+    write_outputs(out_dir, result.summary, data, experiment, title if plot else None)
     result.data = data if keep_data else None
     return result
+
+
+def describe_realism(realism, profile):
+    """'ideal', or the profile stacked on the bridge (a scenario without one runs as its ideal robot)."""
+    if realism == 'ideal':
+        return 'ideal robot'
+    if profile is None:
+        return f'{realism}: no realism profile for this scenario, the ideal robot'
+    return f'{realism} robot: {relative_to_root(profile)}'
+
+
+def relative_to_root(path):
+    """`path` relative to the checkout (config/realism/...) when inside it, else as it is."""
+    path = Path(path)
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
 def controller_params(experiment):
@@ -358,10 +406,12 @@ class LiveRun:
         """Close the bag; {topic: messages written}."""
         return self.recorder.stop()
 
-    def start_nodes(self, scenario, bridge_params, controller_params):
-        """Start the bridge and pause it once it is up, start the controller, wait until it is connected."""
+    def start_nodes(self, scenario, bridge_params, controller_params, bridge_profiles=()):
+        """Start the bridge (the scenario's file, then `bridge_profiles`, stacked) and pause it once it is up,
+        start the controller, wait until it is connected."""
         control, collector = self.control, self.collector
-        self.bridge = self._start('sim_bridge', 'sim_bridge.bridge_node', scenario, bridge_params, BRIDGE_ARGS)
+        self.bridge = self._start('sim_bridge', 'sim_bridge.bridge_node', scenario, bridge_params, BRIDGE_ARGS,
+                                  bridge_profiles)
         control.spin_until(lambda: (collector.publishers('/joint_states') > 0
                                     and control.pause_client.service_is_ready()),
                            STARTUP_TIMEOUT, self.alive, 'the simulator bridge to start')
@@ -371,9 +421,10 @@ class LiveRun:
                  flush=True)
         control.spin_until(self._connected, STARTUP_TIMEOUT, self.alive, 'the controller to connect')
 
-    def _start(self, name, module, scenario, params, extra=()):
-        """Start `python -m module` with the scenario's parameter file and `params`; output to logs/<name>.log."""
-        return self.children.start(name, node_argv(module, scenario, params, extra), self.env,
+    def _start(self, name, module, scenario, params, extra=(), profiles=()):
+        """Start `python -m module` with the scenario's parameter file, `profiles` and `params`; output to
+        logs/<name>.log."""
+        return self.children.start(name, node_argv(module, scenario, params, extra, profiles), self.env,
                                    self.logs / f'{name}.log', cwd=ROOT)
 
     def _connected(self):
@@ -550,6 +601,10 @@ def _parser():
     p.add_argument('--mode', choices=('lockstep', 'realtime'), default='lockstep',
                    help='lockstep: deterministic, as fast as possible (default); realtime: paced to the wall clock')
     p.add_argument('--duration', type=float, default=None, help='simulated seconds (default: the experiment\'s)')
+    p.add_argument('--realism', choices=experiments.REALISM, default='ideal',
+                   help='ideal: the robot the controller models (default); typical: the bridge also reads '
+                        'config/realism/<scenario>_typical.yaml (friction, masses, noise, delay; a scenario '
+                        'without a profile runs ideal); outputs in out/demo/<name>_typical')
     p.add_argument('--no-plot', action='store_true', help='do not write tracking.png')
     p.add_argument('--no-record', action='store_true', help='do not record bag/')
     p.add_argument('--out', default=None, help='output directory (default out/demo/<name>; with --all, '
@@ -564,7 +619,7 @@ def _one(name, opts, out_dir):
     from robot_control.tools.demo_metrics import format_summary
     result = run(name, mode=opts.mode if not opts.all else 'lockstep', duration=opts.duration, out_dir=out_dir,
                  record=not opts.no_record, plot=not opts.no_plot, domain_id=opts.domain_id,
-                 write=None if opts.quiet else print, keep_data=False)
+                 write=None if opts.quiet else print, keep_data=False, realism=opts.realism)
     print(f'\n[demo] {name}: summary\n{format_summary(result.summary)}')
     files = ['summary.json'] + (['tracking.png'] if not opts.no_plot else []) + (['bag/'] if not opts.no_record else [])
     print(f'[demo] wrote {out_dir}/ {" ".join(files)}', flush=True)
@@ -578,11 +633,12 @@ def main(argv=None):
     if opts.all:
         names = list(experiments.EXPERIMENTS)
         base = Path(opts.out) if opts.out else ROOT / 'out' / 'demo'
-        dirs = {n: base / experiments.output_name(n) for n in names}
+        dirs = {n: base / experiments.output_name(n, opts.realism) for n in names}
     else:
         name = opts.experiment or opts.scenario or 'polar_two_link'
         names = [name]
-        dirs = {name: Path(opts.out) if opts.out else ROOT / 'out' / 'demo' / experiments.output_name(name)}
+        out = Path(opts.out) if opts.out else ROOT / 'out' / 'demo' / experiments.output_name(name, opts.realism)
+        dirs = {name: out}
     old = procs.install_signal_handlers()
     code = 0
     try:

@@ -45,6 +45,10 @@ JOINT_UNITS = {
 CONTROL_PERIOD = 0.001   # s, the configs' control_period: a step reaches its goal in one period
 
 
+class Integer(int):
+    """The value of an integer parameter (e.g. delay.measurement_ticks): a plain number is given as a double."""
+
+
 @dataclass(frozen=True)
 class TrajectorySpec:
     """A JointTrajectory in the scenario's joint order: points at t_start + times (s)."""
@@ -373,12 +377,13 @@ def _hybrid_xyz():
         trajectory=sampled(fn, 0.5, 5.0), settle_from=None, force_window=2.0)
 
 
-def _ptp(name, scenario, title, q_start, offset, bridge=None):
-    """Joint-space PD computed torque from rest at q_start to q_start + offset (rad): a quintic in 2 s from 0.2 s."""
+def _ptp(name, scenario, title, q_start, offset, bridge=None, duration=3.0):
+    """Joint-space PD computed torque from rest at q_start to q_start + offset (rad): a quintic in 2 s from 0.2 s,
+    held until `duration` s."""
     goal = np.asarray(q_start, dtype=float) + np.asarray(offset, dtype=float)
     traj = TrajectorySpec(0.2, (2.0,), (tuple(map(float, goal)),))
     return Experiment(name, scenario, f'{title}, joint-space PD computed torque (Pinocchio model): quintic '
-                                      'point-to-point in 2 s', duration=3.0,
+                                      'point-to-point in 2 s', duration=duration,
                       bridge={'initial_positions': [float(v) for v in q_start], **(bridge or {})},
                       trajectory=traj, settle_from=0.2)
 
@@ -442,6 +447,36 @@ def _iiwa_hybrid_vertical():
         trajectory=iiwa_vertical_line(1.0, 2.0, IIWA_LINE.z), settle_from=None, force_window=1.2, figures=('orientation',))
 
 
+GAP_MOVE = 0.5   # rad, every joint's move in the iiwa_gap experiments
+#: the iiwa_gap experiments' effects, each alone: (what the true robot has that the model does not, bridge overrides)
+GAP_EFFECTS = {
+    'friction': ('joint friction: Coulomb 1.0 N m joints 1-4, 0.5 N m joints 5-7, viscous 0.5 N m s/rad',
+                 {'friction.coulomb': [1.0] * 4 + [0.5] * 3, 'friction.viscous': [0.5] * 7}),
+    'payload': ('an unmodelled 2 kg payload 5 cm out on the flange', dict(PAYLOAD)),
+    'masses': ('every link 10 % heavier than the model', {'sim_params.mass_scale': [1.1] * 7}),
+    'late': ('the state one tick late', {'delay.measurement_ticks': Integer(1)}),
+    'noise': ('position noise 1e-4 rad, velocity noise 5e-3 rad/s',
+              {'noise.position_std': [1e-4] * 7, 'noise.velocity_std': [5e-3] * 7, 'seed': Integer(1)}),
+}
+#: the iiwa_gap variants in the table's order: the twin, each effect alone, all together
+GAP_VARIANTS = ('twin', *GAP_EFFECTS, 'all')
+
+
+def _gap(variant):
+    """The model-reality gap on the iiwa: a GAP_MOVE rad quintic move of every joint in 2 s, then a 1 s hold, with
+    computed torque (the scenario's gains), the true robot having `variant`'s effect (none: 'twin'; 'all': every
+    one)."""
+    if variant == 'twin':
+        what, bridge = "nothing: the model's twin", {}
+    elif variant == 'all':
+        what, bridge = 'every effect together', {k: v for _, params in GAP_EFFECTS.values() for k, v in params.items()}
+    else:
+        what, bridge = GAP_EFFECTS[variant]
+    return _ptp(f'iiwa_gap_{variant}', 'iiwa', f'KUKA iiwa, {GAP_MOVE:g} rad on every joint, the true robot with '
+                                               f'{what}',
+                IIWA_POSTURE, (GAP_MOVE,) * 7, bridge={'surface.enable': False, **bridge}, duration=3.2)
+
+
 _BUILDERS = {
     'polar_step': _polar_step,
     'planar_fast_path': lambda: _planar('planar_fast_path', 'computed_torque', 'PD computed torque'),
@@ -469,6 +504,7 @@ _BUILDERS = {
     'pose_tracking': _pose_tracking,
     'payload_compensated': lambda: _payload(True),
     'payload_unmodelled': lambda: _payload(False),
+    **{f'iiwa_gap_{variant}': (lambda v=variant: _gap(v)) for variant in GAP_VARIANTS},
 }
 
 #: the experiment `--scenario NAME` runs
@@ -486,16 +522,18 @@ DEFAULT_FOR_SCENARIO = {
 }
 
 EXPERIMENTS = tuple(_BUILDERS)
+#: the realism of a run: 'ideal' simulates the robot the controller models; 'typical' stacks the scenario's
+#: realism profile (config/realism/<scenario>_typical.yaml) on the bridge's parameters
+REALISM = ('ideal', 'typical')
 
 
-def output_name(name):
+def output_name(name, realism='ideal'):
     """Directory name of an experiment's outputs: the scenario's name for its default experiment
-    (out/demo/polar_two_link), the experiment's own name otherwise (out/demo/disturbance_pid)."""
+    (out/demo/polar_two_link), the experiment's own name otherwise (out/demo/disturbance_pid); a run other
+    than 'ideal' adds its realism (out/demo/iiwa_ptp_typical)."""
     key = DEFAULT_FOR_SCENARIO.get(name, name)
-    for scenario, default in DEFAULT_FOR_SCENARIO.items():
-        if default == key:
-            return scenario
-    return key
+    base = next((scenario for scenario, default in DEFAULT_FOR_SCENARIO.items() if default == key), key)
+    return base if realism == 'ideal' else f'{base}_{realism}'
 
 
 def get(name):

@@ -20,7 +20,8 @@ import numpy as np
 from robot_control.tools import demo, demo_metrics
 from robot_control.tools.processes import DomainClaim
 
-E2E_DOMAINS = range(71, 81)
+#: the ids the runs claim: 71-80, or E2E_DOMAINS="first-last" (a range kept clear of concurrent suites)
+E2E_DOMAINS = range(*(lambda a, b: (int(a), int(b) + 1))(*os.environ.get('E2E_DOMAINS', '71-80').split('-')))
 WORKERS = int(os.environ.get('E2E_WORKERS', '2'))
 RUN_TIMEOUT = 300.0          # s of wall time for one run, start-up included
 _next = itertools.count()

@@ -24,7 +24,7 @@ PARAMETERS = DOCS / 'parameters.md'
 #: page -> the markers of its generated parts
 GENERATED = {
     'parameters.md': ('params:controller', 'params:sim_bridge'),
-    'results.md': ('results', 'plots'),
+    'results.md': ('results', 'typical', 'gap', 'plots'),
     'benchmarks.md': ('bench',),
     'robustness.md': ('robustness',),
     'networking.md': ('two-hosts',),
@@ -341,3 +341,49 @@ def test_two_hosts_table_is_generated_from_a_whole_passing_run_only(tmp_path, ca
     before = page.read_text()                                       # the command line leaves the table and says so
     assert docs_results.main(args) == 0 and page.read_text() == before
     assert 'two-host figures of a run in which 2 tests failed: that table is left as it is' in capsys.readouterr().err
+
+
+def test_typical_and_gap_runs_get_their_own_tables_and_plots(tmp_path):
+    """Typical runs go beside their ideal twins, the iiwa_gap runs into their table; neither enters the results
+    table, which a directory of them alone leaves as it is. A typical plot is listed under its experiment."""
+    results, docs = tmp_path / 'out' / 'demo', tmp_path / 'docs'
+    _write_summary(results, 'polar_two_link_typical', experiment='polar_step', realism='typical',
+                   realism_profile='config/realism/polar_two_link_typical.yaml', rms_error={'theta1': 0.02, 'r': 0.001})
+    joints = [f'lbr_iiwa_joint_{i}' for i in range(1, 8)]
+    for variant, final, peak in (
+            ('twin', [1e-6] * 7, [1e-4] * 7),
+            ('friction', [0.01, 0.05, 0.08, 0.14, 0.5, 0.5, 0.5], [0.02, 0.06, 0.09, 0.15, 0.5, 0.5, 0.5]),
+            ('payload', [0.05, 0.09, 0.18, 0.12, 0.73, 0.49, 0.5], [0.05, 0.1, 0.2, 0.2, 0.76, 0.49, 0.58])):
+        _write_summary(results, f'iiwa_gap_{variant}', scenario='iiwa', units=dict.fromkeys(joints, 'rad'),
+                       final_error=dict(zip(joints, final)), rms_error=dict(zip(joints, final)),
+                       max_error=dict(zip(joints, peak)))
+    _tracking_png(results / 'polar_two_link_typical' / 'tracking.png')
+    text = ('# r\n\n' + ''.join(f'{b}\nold {b[5:-4]}\n{e}\n' for b, e in (
+        (docs_results.BEGIN, docs_results.END), (docs_results.TYPICAL_BEGIN, docs_results.TYPICAL_END),
+        (docs_results.GAP_BEGIN, docs_results.GAP_END), (docs_results.PLOTS_BEGIN, docs_results.PLOTS_END))))
+    docs.mkdir()
+    page = docs / docs_results.RESULTS_PAGE
+    page.write_text(text)
+    assert docs_results.main(_args(tmp_path, docs, results=results)) == 0
+    text = page.read_text()
+    assert 'old results:begin' in text                              # no ideal run but the gap's: kept
+    [typical] = [line for line in text.splitlines() if line.startswith('| polar_step |')]
+    assert '| `config/realism/polar_two_link_typical.yaml` | - / theta1 0.02 rad, r 1.00e-03 m |' in typical
+    [twin] = [line for line in text.splitlines() if line.startswith('| twin |')]
+    [friction] = [line for line in text.splitlines() if line.startswith('| friction |')]
+    assert '| 1.00e-06 rad (j1) |' in twin and '| none |' in twin
+    assert '| 0.5 rad (j5) |' in friction and '| j5, j6, j7 |' in friction
+    [payload] = [line for line in text.splitlines() if line.startswith('| payload |')]
+    assert '| 0.73 rad (j5) |' in payload and '| none |' in payload    # j7 ends 0.5 off, sagged past its start
+    assert (docs / 'figures' / 'polar_step_typical.png').is_file()
+    block = text[text.index(docs_results.PLOTS_BEGIN):]
+    assert 'On the typical robot (`config/realism/polar_two_link_typical.yaml`' in block
+    assert re.findall(r'\(figures/(\w+)\.png\)', block) == ['polar_step_typical']
+    _write_summary(results, 'polar_two_link', experiment='polar_step')    # its ideal twin
+    assert docs_results.main(_args(tmp_path, docs, results=results)) == 0
+    text = page.read_text()
+    [row] = [line for line in text.splitlines() if line.startswith('| polar_step (polar_two_link) |')]
+    [typical] = [line for line in text.splitlines() if line.startswith('| polar_step |')]
+    assert '| theta1 0.0123 rad, r 4.50e-04 m / theta1 0.02 rad, r 1.00e-03 m |' in typical
+    assert not any(line.startswith(('| iiwa_gap', '| polar_step (polar_two_link_typical)'))
+                   for line in text[:text.index(docs_results.END)].splitlines())
