@@ -127,7 +127,7 @@ def test_demo_command_writes_summary_plot_and_bag_and_stops_its_processes(tmp_pa
     assert summary['domain_id'] == domain
     assert (out / 'tracking.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
     meta = (out / 'bag' / 'metadata.yaml').read_text()
-    assert 'ros_distro: jazzy' in meta and 'storage_identifier: mcap' in meta
+    assert 'version: 9' in meta and 'storage_identifier: mcap' in meta
     # the recorder's bag plots as the run did: the joint, its reference and error, the applied torque
     plot = bag_tracking.tracking_data(out / 'bag')
     assert plot['scenario'] == 'single_link' and plot['joint_names'] == ['theta'] and plot['units'] == ['rad']
