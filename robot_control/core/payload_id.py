@@ -7,14 +7,15 @@ whatever the motor and its friction do (stiction holds the rest of the motor's t
 
 Y(q) (n, 4) is the tip's payload regressor (UrdfModel.payload_regressor: -J_v^T g m + J_w^T [g]x R (m c)),
 g_robot(q) = g_model(q) - Y(q) theta_model the model's gravity torque without the payload it carries.
-Over poses k = 1..P, each the mean of `samples` ticks at rest, theta solves the stacked least squares
+Over poses k = 1..P, each the mean of the states over `sample_time` s at rest, theta solves the stacked
+least squares
 
     min_theta  sum_k || Y(q_k) theta - (tau_k - g_robot(q_k)) ||^2,   c = (m c) / m.
 
 The pose schedule: the start pose q_0 plus each offset (P, n) rad, visited in turn by a quintic move of
 `move_time` s (ControllerCore.set_goal) under the active law, then back to q_0. At a pose, sampling starts
-once the move is over, `settle_time` s have passed and every |qd| < settle_velocity (rad/s), and restarts
-if a joint moves faster again. A sample needs the measured joint torques (effort, N m) of that tick.
+once the move is over, `settle_time` s have passed and every |qd| < settle_velocity (rad/s), restarts if a
+joint moves faster again, and ends after `sample_time` s of states at rest (their mean is the pose's). A sample needs the measured joint torques (effort, N m) of that tick.
 """
 import dataclasses
 
@@ -91,10 +92,10 @@ class PayloadIdentification:
     tau: (n,) in joint order). `done` when back at the start pose with every pose measured; then
     `estimate` holds the Estimate, or `error` the ArgumentError of the solve."""
 
-    def __init__(self, offsets, move_time, settle_time, settle_velocity, samples):
+    def __init__(self, offsets, move_time, settle_time, settle_velocity, sample_time):
         self.offsets = np.asarray(offsets, dtype=float)
         self.move_time, self.settle_time = move_time, settle_time
-        self.settle_velocity, self.samples = settle_velocity, samples
+        self.settle_velocity, self.sample_time = settle_velocity, sample_time
         self.estimate = self.error = None
         self.done = False
         self.pose = 0                # index into offsets; == len(offsets): returning to the start
@@ -122,8 +123,10 @@ class PayloadIdentification:
         if self.pose == len(self.offsets):
             self._finish()
             return
+        if not self._count:
+            self._first = core.t
         self._sum_q, self._sum_tau, self._count = self._sum_q + q, self._sum_tau + tau, self._count + 1
-        if self._count == self.samples:
+        if core.t - self._first >= self.sample_time:
             Y, r = payload_torque(core.config.model, self._sum_q / self._count, self._sum_tau / self._count)
             self._regressors.append(Y)
             self._torques.append(r)

@@ -1,10 +1,7 @@
 """Payload identification (robot_control.core.payload_id) on the simulated iiwa with the bridge's own sensor
 model (sim_bridge.sensors.Driver over a World built from the bridge's parameters), driven by the Controller."""
-import os
-
 import numpy as np
 import pytest
-import yaml
 
 from robot_control import scenarios
 from robot_control.core.controller import Command, Controller
@@ -16,19 +13,7 @@ from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
 from sim_bridge.engines import make_world
 from sim_bridge.sensors import Driver
-from support.param_files import flatten
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-PAYLOAD = {'payload.mass': 2.0, 'payload.com': [0.0, 0.0, 0.05]}     # kg, m in the tip frame
-
-
-def typical_profile(mass_errors):
-    """config/realism/iiwa_typical.yaml's bridge parameters; without its link-mass errors unless mass_errors."""
-    with open(os.path.join(ROOT, 'config', 'realism', 'iiwa_typical.yaml')) as f:
-        values = flatten(yaml.safe_load(f)['/**/sim_bridge']['ros__parameters'])
-    if not mass_errors:
-        del values['sim_params.mass_scale'], values['sim_params.inertia_scale']
-    return values
+from support.realism import PAYLOAD, typical_profile
 
 
 def identify(law, bridge_values, max_ticks=40000):
@@ -40,7 +25,7 @@ def identify(law, bridge_values, max_ticks=40000):
     try:
         driver = Driver(world, cfg.sensors, cfg.control_period_ns)
         controller = Controller(ConfigBuilder()(params.TABLE.validate({'scenario': 'iiwa', 'law': law})), 0.5)
-        ident = PayloadIdentification(default_offsets(7), 1.0, 0.3, 0.05, 300)
+        ident = PayloadIdentification(default_offsets(7), 1.0, 0.3, 0.05, 0.3)
         for k in range(max_ticks):
             q, qd, tau = (np.array(v) for v in driver.measured.state_values())
             command = controller.step(driver.measured.t_ns, cfg.joints, q, qd)
@@ -72,7 +57,7 @@ def test_the_regressor_gives_the_gravity_torque_a_payload_adds():
 
 @pytest.mark.parametrize('law', ['joint_impedance', 'computed_torque'])
 def test_a_payload_the_controller_was_not_told_of_is_found_with_the_typical_friction_noise_and_delay(law):
-    ident = identify(law, {**typical_profile(mass_errors=False), **PAYLOAD})
+    ident = identify(law, {**typical_profile('iiwa', mass_errors=False), **PAYLOAD})
     est = ident.error or ident.estimate
     assert abs(est.mass - 2.0) < 0.03 * 2.0, est.message()
     assert np.linalg.norm(est.com - [0.0, 0.0, 0.05]) < 0.005, est.message()
