@@ -15,7 +15,8 @@ least squares
 The pose schedule: the start pose q_0 plus each offset (P, n) rad, visited in turn by a quintic move of
 `move_time` s (ControllerCore.set_goal) under the active law, then back to q_0. At a pose, sampling starts
 once the move is over, `settle_time` s have passed and every |qd| < settle_velocity (rad/s), restarts if a
-joint moves faster again, and ends after `sample_time` s of states at rest (their mean is the pose's). A sample needs the measured joint torques (effort, N m) of that tick.
+joint moves faster again, and ends after `sample_time` s of states at rest (their mean is the pose's). A
+sample needs the measured joint torques (effort, N m) of that tick.
 """
 import dataclasses
 
