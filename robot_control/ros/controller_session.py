@@ -66,7 +66,7 @@ class ControllerSession:
         self._make_messages(cfg)
         self._apply_references(snapshot.values, initial=True)
         self._make_interfaces(snapshot.values, cfg)
-        self._payload = PayloadService(node, self.controller, snapshot.values)     # ~/identify_payload
+        self._payload = PayloadService(node, self.controller, snapshot.values, lambda: self.active)
 
     @property
     def core(self):

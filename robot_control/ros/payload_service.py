@@ -44,10 +44,11 @@ class Job:
 class PayloadService:
     """~/identify_payload for the Controller `controller` of `node` (module docstring). configure(values) with
     the node's parameter values (its payload_identification.* rows); on_state(names, efforts) after each
-    answered state; destroy() ends a running call with a failure and stops the helper."""
+    answered state; `active()`: True while the controller commands (a call is refused at once otherwise);
+    stop() ends the calls with a failure; destroy() also stops the helper."""
 
-    def __init__(self, node, controller, values):
-        self._node, self._controller = node, controller
+    def __init__(self, node, controller, values, active):
+        self._node, self._controller, self._active = node, controller, active
         self._values = values
         self._jobs = collections.deque()         # calls not started yet (appended by the service thread)
         self._job = self._ident = None           # the call being served, its identification
@@ -74,8 +75,8 @@ class PayloadService:
     def _on_call(self, request, response):
         job = Job()
         self._jobs.append(job)
-        if self._stop.is_set():
-            job.finish(False, 'the controller was shut down')
+        if self._stop.is_set() or not self._active():
+            job.finish(False, 'the controller is not active')
         if not job.done.wait(TIMEOUT):
             job.finish(False, f'no result within {TIMEOUT:g} s (is the controller active and receiving joint_states?)')
         response.success, response.message = job.success, job.message
@@ -86,7 +87,9 @@ class PayloadService:
         """After an answered state (its names and efforts): start a call's identification, or feed it."""
         if self._ident is None:
             if self._jobs:
-                self._start(self._jobs.popleft())
+                job = self._jobs.popleft()
+                if not job.done.is_set():        # else already answered (refused, or timed out)
+                    self._start(job)
             return
         state = self._controller.core.state
         try:
@@ -134,15 +137,15 @@ class PayloadService:
             job.finish(success, message)
 
     def stop(self):
-        """The controller stopped: a running identification ends with a failure (the next call starts over)."""
+        """The controller stopped: the running identification and the waiting calls end with a failure."""
         self._end(False, 'the controller stopped')
+        while self._jobs:
+            self._jobs.popleft().finish(False, 'the controller stopped')
 
     def destroy(self):
         """End every call with a failure, stop the helper thread, release the helper node."""
         self._stop.set()
         self.stop()
-        while self._jobs:
-            self._jobs.popleft().finish(False, 'the controller was shut down')
         self._thread.join()
         self._executor.shutdown()
         self._helper.destroy_node()

@@ -58,3 +58,24 @@ def test_identify_payload_answers_with_the_figures_and_sets_the_payload_paramete
         executor.shutdown()
         for node in (client_node, controller, bridge):
             node.destroy_node()
+
+
+def test_a_call_to_an_inactive_controller_is_refused_at_once(ros_context):
+    controller = ControllerNode(context=ros_context, parameter_overrides=overrides(scenario='iiwa'))
+    client_node = Node('identify_client', context=ros_context)
+    executor = make_executor('events', context=ros_context)
+    try:
+        for node in (controller, client_node):
+            executor.add_node(node)
+        controller.trigger_deactivate()
+        client = client_node.create_client(Trigger, '/controller/identify_payload')
+        assert _spin_until(executor, client.service_is_ready, 30.0)
+        future = client.call_async(Trigger.Request())
+        assert _spin_until(executor, future.done, 30.0)
+        assert not future.result().success
+        assert future.result().message == 'the controller is not active'
+        assert controller.get_parameter('payload.mass').value == 0.0
+    finally:
+        executor.shutdown()
+        for node in (client_node, controller):
+            node.destroy_node()
