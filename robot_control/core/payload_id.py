@@ -26,6 +26,8 @@ from robot_control.validation import ArgumentError
 
 #: default offsets of the last (at most three) joints, rad: each of them +- this, one at a time
 DEFAULT_OFFSET = 0.6
+#: smallest singular value of the stacked regressor, relative to its largest, that counts as excited
+MIN_EXCITATION = 1e-3
 
 
 def default_offsets(n, amplitude=DEFAULT_OFFSET):
@@ -66,10 +68,12 @@ class Estimate:
 
 def solve(regressors, torques):
     """Estimate from Y_k (n, 4) and the payload's measured torques tau_k - g_robot(q_k) (n,) of each pose:
-    the least squares of the module docstring. ArgumentError when the poses do not excite theta (rank < 4)
+    the least squares of the module docstring. ArgumentError when the poses do not excite theta (a singular
+    value of the stacked Y below MIN_EXCITATION times the largest: the noise would decide that direction)
     or the mass comes out <= 0."""
     Y, r = np.vstack(regressors), np.concatenate(torques)
-    theta, _, rank, _ = np.linalg.lstsq(Y, r, rcond=None)
+    theta, _, _, sv = np.linalg.lstsq(Y, r, rcond=None)
+    rank = int(np.sum(sv > MIN_EXCITATION * sv[0]))
     if rank < 4:
         raise ArgumentError('payload_identification.poses', f'the poses determine {rank} of the 4 payload '
                                                             'parameters: vary the tip orientation more')

@@ -82,6 +82,17 @@ def test_one_pose_cannot_separate_the_payload_s_parameters():
     assert err.value.name == 'payload_identification.poses'
 
 
+def test_poses_a_hundredth_of_a_degree_apart_are_refused_not_solved():
+    # with exact torques any rank-4 fit is right; measured ones would be decided by their noise
+    sc = scenarios.get('iiwa')
+    model = make_model('urdf', urdf=sc.urdf, tip=sc.tip, payload=(2.0, (0.0, 0.0, 0.05)))
+    poses = np.array(sc.q0) + default_offsets(7, amplitude=2e-4)
+    with pytest.raises(ArgumentError, match='determine 3 of the 4'):
+        solve(*zip(*(payload_torque(model, q, model.g(q)) for q in poses)))
+    estimate = solve(*zip(*(payload_torque(model, q, model.g(q)) for q in np.array(sc.q0) + default_offsets(7))))
+    assert estimate.mass == pytest.approx(2.0) and np.allclose(estimate.com, [0.0, 0.0, 0.05])
+
+
 def test_the_poses_are_offsets_per_joint_or_the_wrist_default():
     assert offsets_of([], 7).shape == (7, 7)
     assert np.array_equal(offsets_of([0.1, 0.2, 0.3, 0.4], 2), [[0.1, 0.2], [0.3, 0.4]])
