@@ -197,6 +197,13 @@ class ControllerNode(ParameterNode, LifecycleNode):
         self._release()
         return TransitionCallbackReturn.SUCCESS
 
+    def destroy_node(self):
+        """Release the session (its interfaces, the ~/identify_payload helper and its thread), then the node."""
+        if self.session is not None:
+            self.session.destroy()
+            self.session = None
+        super().destroy_node()
+
     def _release(self):
         if self.session is not None:
             self.session.destroy()
