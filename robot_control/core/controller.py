@@ -149,6 +149,16 @@ class Controller:
         tau = core.update_checked(t, q, qd, self._f_meas)
         return Command(stamp_ns, tau, core.tau_values)
 
+    def in_joint_order(self, names, values):
+        """A state's values per name (k,), e.g. its efforts, in joint order: a new (n,) array. ArgumentError
+        ('effort') unless there is one finite value per name."""
+        if len(values) != len(names):
+            raise validation.ArgumentError('effort', f'expected one entry per name ({len(names)}), got {len(values)}')
+        out = np.asarray(values, dtype=float)[self._reader.index(names)]
+        if not np.isfinite(out).all():
+            raise validation.ArgumentError('effort', f'not finite: {out.tolist()}')
+        return out
+
     def sent(self, node_ns, steady_ns, tick_ns):
         """A Command was published at these clock readings, tick_ns of wall time after its state came:
         True when that ends a watchdog trip (the states are back)."""

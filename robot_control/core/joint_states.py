@@ -68,6 +68,10 @@ class JointStateReader:
         self._in_order = self._names == list(self.joints)
         return self._index
 
+    def index(self, names):
+        """Where each controlled joint is in a state's names (k,): (n,) indices (ArgumentError naming 'name')."""
+        return self._index_for(names)
+
     def read(self, msg):
         """read_fields of a message's name, position and velocity."""
         return self.read_fields(msg.name, msg.position, msg.velocity)

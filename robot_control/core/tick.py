@@ -168,6 +168,11 @@ class ControllerCore:
 
     # -- references --------------------------------------------------------------------------------
     @property
+    def state(self):
+        """The State of the last tick (laws.base.State: t, q, qd, ...), None before the first."""
+        return self._state
+
+    @property
     def t(self):
         """Time of the last tick, s (None before the first)."""
         return self._t

@@ -139,6 +139,8 @@ class UrdfModel(RobotModel):
             if tip is None:
                 raise ArgumentError('payload', 'a payload needs the tip that carries it')
             xml = urdf_files.with_payload(xml, tip, *payload)
+        #: (mass kg, com (3,) m in the tip frame) of the payload the model carries; (0.0, zeros) for none
+        self.payload = (0.0, np.zeros(3)) if payload is None else (float(payload[0]), np.array(payload[1], float))
         full, warnings = _parse(xml, where)
         self.source = where                  # file path, or 'URDF XML string'
         self.urdf_warnings = tuple(warnings)  # robot_control.urdf.checks.check's warnings
@@ -246,6 +248,23 @@ class UrdfModel(RobotModel):
         """The tip frame's classical acceleration at qdd = 0 (linear, then angular), world axes, (m,)."""
         pin.forwardKinematics(self.model, self._data, self._map.q(q), self._map.v(qd), self._zero)
         return self._motion(pin.getFrameClassicalAcceleration(self.model, self._data, self.frame_id, LWA))
+
+    def payload_regressor(self, q):
+        """Y (n, 4): the gravity torque of a payload on the tip is Y [m, m c_x, m c_y, m c_z], N m, for its
+        mass m (kg) and centre of mass c (m, tip frame). A point mass at p + R c (tip origin p, rotation R)
+        in gravity g (m/s^2, world) has  tau = -J_v^T g m + J_w^T [g]x R (m c),  J_v, J_w the tip frame's
+        linear and angular Jacobians in world axes (LOCAL_WORLD_ALIGNED). Needs a tip (ArgumentError)."""
+        if self.frame_id is None:
+            raise ArgumentError('tip', 'the payload regressor needs the tip that carries the payload')
+        q = validation.vector('q', q, self.n)
+        model, data, fid = self.model, self._data, self.frame_id
+        jac = pin.computeFrameJacobian(model, data, self._map.q(q), fid, LWA).reshape(6, model.nv)
+        rot = data.oMf[fid].rotation
+        g = model.gravity.linear
+        y = np.empty((model.nv, 4))
+        y[:, 0] = -jac[:3].T @ g
+        y[:, 1:] = jac[3:].T @ pin.skew(g) @ rot
+        return y if self._map.identity else y[self._map.iv]
 
     def _task(self, q, qd):
         """(x, J, Jdot qd) from one kinematics pass at (q, qd, qdd = 0)."""

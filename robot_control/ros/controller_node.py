@@ -15,6 +15,8 @@ Topics (names relative, remappable; QoS from robot_control.ros.qos):
   pub ~/reference                 sensor_msgs/JointState       REFERENCE_QOS reference of the tick
   pub ~/error                     sensor_msgs/JointState       REFERENCE_QOS tracking error of the tick
   pub /diagnostics                diagnostic_msgs/DiagnosticArray DIAGNOSTICS_QOS  every diagnostics_period
+  srv ~/identify_payload          std_srvs/Trigger             identify the tip's payload, set payload.mass
+                                                                             and payload.com (robot_control.ros.payload_service)
 
 Event-driven: while active, each valid joint_states message gets exactly one command, computed
 from the reference sampled at that message's header.stamp and stamped with the same stamp. An
@@ -194,6 +196,13 @@ class ControllerNode(ParameterNode, LifecycleNode):
     def on_shutdown(self, state):
         self._release()
         return TransitionCallbackReturn.SUCCESS
+
+    def destroy_node(self):
+        """Release the session (its interfaces, the ~/identify_payload helper and its thread), then the node."""
+        if self.session is not None:
+            self.session.destroy()
+            self.session = None
+        super().destroy_node()
 
     def _release(self):
         if self.session is not None:

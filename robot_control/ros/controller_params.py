@@ -94,7 +94,8 @@ def rows(values):
         d['joints'] = CLOSED_FORM[model].joint_names
     get = d.get
     return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + force_rows(get, model)
-            + motion_rows() + law_rows() + list(friction_compensation.PARAM_ROWS) + node_rows())
+            + motion_rows() + law_rows() + list(friction_compensation.PARAM_ROWS) + payload_id_rows()
+            + node_rows())
 
 
 def robot_rows(get):
@@ -115,10 +116,24 @@ def robot_rows(get):
         Row('task_space', 'string', 'position',
             "model 'urdf': the tip's task space: position (x, y, z, m) or pose (also rx, ry, rz: its orientation "
             'as a rotation vector, rad; errors on SO(3))', [one_of(('position', 'pose'))], read_only=True),
-        Row('payload.mass', 'double', 0.0, "model 'urdf': mass carried by the tip, kg; 0 = none", [gt_eq(0)],
-            read_only=True, aliases=('payload',)),
+        Row('payload.mass', 'double', 0.0, "model 'urdf': mass carried by the tip, kg; 0 = none (set by "
+            '~/identify_payload)', [gt_eq(0)], aliases=('payload',)),
         Row('payload.com', 'double_array', (0.0, 0.0, 0.0), "model 'urdf': the payload's centre of mass in the "
-            'tip frame, m', [size(3, 'coordinate')], read_only=True),
+            'tip frame, m (set by ~/identify_payload)', [size(3, 'coordinate')]),
+    ]
+
+
+def payload_id_rows():
+    """~/identify_payload: the poses it visits and how it measures at each (robot_control.core.payload_id)."""
+    prefix = 'payload_identification.'
+    return [
+        Row(prefix + 'poses', 'double_array', (), 'joint offsets from the pose at the call, rad, one per joint for '
+            'each pose, flat; empty = that pose and +-0.6 rad on each of the last three joints'),
+        Row(prefix + 'move_time', 'double', 1.5, 'duration of each move between poses, s', [gt(0)]),
+        Row(prefix + 'settle_time', 'double', 0.3, 'wait after each move before sampling, s', [gt_eq(0)]),
+        Row(prefix + 'settle_velocity', 'double', 0.05, 'at rest: every |qd| below this, rad/s', [gt(0)]),
+        Row(prefix + 'sample_time', 'double', 0.3, 'time at rest over which the joint torques are averaged at '
+            'each pose, s', [gt(0)]),
     ]
 
 

@@ -28,6 +28,7 @@ from robot_control import units
 from robot_control.core.controller import Command, Controller
 from robot_control.core.status import needs_wrench
 from robot_control.ros import cdr, conversions
+from robot_control.ros.payload_service import PayloadService
 from robot_control.ros.reference_inputs import ReferenceInputs
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.core.throttle import Throttle
@@ -65,6 +66,7 @@ class ControllerSession:
         self._make_messages(cfg)
         self._apply_references(snapshot.values, initial=True)
         self._make_interfaces(snapshot.values, cfg)
+        self._payload = PayloadService(node, self.controller, snapshot.values, lambda: self.active)
 
     @property
     def core(self):
@@ -87,10 +89,12 @@ class ControllerSession:
         self.active = False
         self.controller.deactivate()
         self._wrench_timer.cancel()
+        self._payload.stop()
 
     def destroy(self):
         """Release every publisher, subscription and timer."""
         self.active = False
+        self._payload.destroy()
         node = self._node
         for pub in (self._cmd_pub, self._array_pub, self._ref_pub, self._err_pub, self._diag_pub):
             if pub is not None:
@@ -107,6 +111,7 @@ class ControllerSession:
         self._set_ft_subscription(snapshot.config)
         self._publish(results, time.perf_counter_ns())
         values = snapshot.values
+        self._payload.configure(values)
         self._apply_references(values, changed=changed, old=old.values)
         self.allow_partial = values['allow_partial_joints_goal']
         if 'state_timeout' in changed:
@@ -166,6 +171,7 @@ class ControllerSession:
                                                     self._wrench_publisher), t_in)
         if self.controller.waiting:
             self._wrench_timer.reset()
+        self._payload.on_state(msg.name, msg.effort)
 
     def _wrench_publisher(self):
         return self._node.count_publishers(self._ft_sub.topic_name) > 0
