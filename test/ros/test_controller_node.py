@@ -708,6 +708,43 @@ def test_a_run_of_rejections_calls_the_logger_once_per_throttle_period(ros_conte
         assert ctrl.rejected['joint_states'] == 100 and ctrl.last_rejection == 'joint_states: bad 99'
         assert warnings == ['rejected joint_states: bad 0']
 
+class CapturedWarnings:
+    """The controller's logger with its warnings captured as (wall time s, text); every other call passes on."""
+
+    def __init__(self, logger):
+        self.logger, self.lines = logger, []
+
+    def warning(self, text, **kwargs):
+        self.lines.append((time.monotonic(), text))
+
+    def __getattr__(self, name):
+        return getattr(self.logger, name)
+
+
+def test_a_law_that_keeps_saturating_is_a_throttled_warning_in_the_node_s_log(ros_context):
+    """Effort limits of 0.5 N m / N hold nothing: every tick saturates both joints. The node's log says so,
+    naming the joints and the counts, at most once per the Controller's period (shortened to 0.3 s here
+    from LAW_WARN_PERIOD), each window's counts following on from the last."""
+    import re
+    period = 0.3
+    with rig(ros_context, **dict(POLAR, effort_limits=[0.5, 0.5])) as (ex, ctrl, robot):
+        log = ctrl.session.log = CapturedWarnings(ctrl.session.log)
+        ctrl.session.controller.law_watch.period_ns = units.to_ns(period)
+        k, deadline = 0, time.monotonic() + 60.0
+        while len(log.lines) < 3 and time.monotonic() < deadline:
+            robot.step(ex, POLAR_JOINTS, [0.3, 0.7], [0.0, 0.0], T0_NS + k * DT_NS)
+            k += 1
+    assert len(log.lines) >= 3, log.lines
+    said = re.compile(r'law computed_torque saturated the effort limits in (\d+) of the last (\d+) ticks '
+                      r'\(theta1 in (\d+), r in (\d+)\)$')
+    counts = [[int(g) for g in said.match(text).groups()] for _, text in log.lines]
+    assert all(len(set(c)) == 1 for c in counts), counts          # every tick saturated both joints
+    assert sum(c[0] for c in counts) <= k
+    gaps = np.diff([t for t, _ in log.lines])
+    print(f'{len(log.lines)} warnings over {k} ticks, {gaps.min():.3f} s apart at least: {log.lines[0][1]}')
+    assert gaps.min() >= period
+
+
 def test_diagnostics_are_throttled_to_their_period(ros_context):
     with rig(ros_context, **dict(POLAR, diagnostics_period=0.2)) as (ex, ctrl, robot):
         start = len(robot.diagnostics)
