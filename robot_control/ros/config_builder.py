@@ -116,7 +116,7 @@ class ConfigBuilder:
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
-            law_params={row.name: values[row.name] for row in law.param_rows})
+            control_period=values['control_period'], law_params={row.name: values[row.name] for row in law.param_rows})
         q_d = values['q_d']
         if q_d and len(q_d) != model.n:
             raise ParameterError('q_d', f'expected empty or {model.n} values (one per joint), got {len(q_d)}')
@@ -131,6 +131,10 @@ class ConfigBuilder:
         if key != self._model_key:
             self._model = self._make_model(values, params)
             self._model_key = key
+        if values['model'] == 'urdf' and values['task_space'] == 'pose' and self._model.task_dim > self._model.n:
+            raise ParameterError('task_space', f'pose has {self._model.task_dim} task axes: an arm of '
+                                               f'{self._model.n} joints {list(self._model.joint_names)} cannot '
+                                               'hold a pose; set position, or auto (pose on 6 or more joints)')
         return self._model
 
     def _make_model(self, values, params):
