@@ -27,8 +27,8 @@ POSE_JOINTS = len(TASK_SPACES['pose'])
 
 
 def task_space_for(task_space, n):
-    """The task space (a key of TASK_SPACES) `task_space` means on an arm of n joints: 'auto' is 'pose' where
-    the arm can hold one (n >= POSE_JOINTS), else 'position'; 'position' and 'pose' are themselves."""
+    """The task space (a key of TASK_SPACES) `task_space` means on an arm whose tip n joints move: 'auto' is
+    'pose' where the arm can hold one (n >= POSE_JOINTS), else 'position'; 'position' and 'pose' are themselves."""
     if task_space == 'auto':
         return 'pose' if n >= POSE_JOINTS else 'position'
     return task_space

@@ -121,8 +121,9 @@ class UrdfModel(RobotModel):
     task_space: 'position' (x, y, z of the tip frame's origin, m) or 'pose' (also rx, ry, rz: its
       orientation as the rotation vector log3(R), rad; velocities are the frame's twist, angular
       velocity in world axes, and the orientation error is log3(R_d R^T), see _task_difference), or 'auto':
-      pose where the arm can hold one (6 joints or more), else position (models.base.task_space_for);
-      the attribute task_space is the one taken.
+      pose where the arm can hold one (6 or more of the joints move the tip), else position
+      (models.base.task_space_for); the attribute task_space is the one taken, tip_joints the joints
+      that move the tip (in joint order).
     payload: None, or (mass kg, com (3,) m in the tip frame): a solid sphere carried by the tip
       (robot_control.urdf.with_payload, the same the simulator can carry).
     q_locked: positions of the other joints, a mapping {name: position} (rad or m; unnamed
@@ -159,10 +160,14 @@ class UrdfModel(RobotModel):
         n = len(joints)
         self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # CRBA fills the upper triangle only
         self._limits(model, joints)
-        self.tip, self.frame_id, self.task_axes = None, None, ()
-        self.task_space = task_space = task_space_for(task_space, n)
+        self.tip, self.frame_id, self.task_axes, self.tip_joints = None, None, (), ()
         if tip is not None:
-            self.tip, self.frame_id, self.task_axes = tip, _frame(model, tip), TASK_SPACES[task_space]
+            self.tip, self.frame_id = tip, _frame(model, tip)
+            moving = set(model.supports[model.frames[self.frame_id].parentJoint])
+            self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
+        self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
+        if tip is not None:
+            self.task_axes = TASK_SPACES[task_space]
         self._rows = slice(0, len(self.task_axes))    # rows of the frame's 6-D quantities in the task space
 
     def _limits(self, model, joints):

@@ -16,6 +16,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.gains import ServoGains
 from robot_control.laws import law_class
 from robot_control.models import make_model
+from robot_control.models.base import POSE_JOINTS
 from robot_control.param_table import ParameterError
 from robot_control.validation import ArgumentError
 
@@ -131,11 +132,13 @@ class ConfigBuilder:
         if key != self._model_key:
             self._model = self._make_model(values, params)
             self._model_key = key
-        if values['model'] == 'urdf' and values['task_space'] == 'pose' and self._model.task_dim > self._model.n:
-            raise ParameterError('task_space', f'pose has {self._model.task_dim} task axes: an arm of '
-                                               f'{self._model.n} joints {list(self._model.joint_names)} cannot '
-                                               'hold a pose; set position, or auto (pose on 6 or more joints)')
-        return self._model
+        model = self._model
+        if values['model'] == 'urdf' and values['task_space'] == 'pose' and len(model.tip_joints) < POSE_JOINTS:
+            raise ParameterError('task_space', f'pose has {POSE_JOINTS} task axes: {len(model.tip_joints)} of the '
+                                               f'joints {list(model.joint_names)} move the tip {model.tip} '
+                                               f'({list(model.tip_joints)}), too few to hold a pose; set position, '
+                                               'or auto (pose where 6 or more joints move the tip)')
+        return model
 
     def _make_model(self, values, params):
         name = values['model']

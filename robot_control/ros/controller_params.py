@@ -116,8 +116,9 @@ def robot_rows(get):
             read_only=True),
         Row('task_space', 'string', get('task_space', 'auto'),
             "model 'urdf': the tip's task space: position (x, y, z, m), pose (also rx, ry, rz: its orientation "
-            'as a rotation vector, rad; errors on SO(3); needs 6 or more joints) or auto (pose on an arm of 6 or '
-            'more joints, else position)', [one_of(('auto', 'position', 'pose')), custom('pose: 6 or more joints')],
+            'as a rotation vector, rad; errors on SO(3); needs 6 or more joints moving the tip) or auto (pose '
+            'where 6 or more of the joints move the tip, else position)',
+            [one_of(('auto', 'position', 'pose')), custom('pose: 6 or more joints moving the tip')],
             read_only=True),
         Row('payload.mass', 'double', 0.0, "model 'urdf': mass carried by the tip, kg; 0 = none", [gt_eq(0)],
             read_only=True, aliases=('payload',)),

@@ -130,6 +130,9 @@ def test_the_default_task_space_is_the_pose_where_the_arm_can_hold_one_and_expli
     assert params.TABLE.resolve()[0]['task_space'].default == 'auto'
     assert build(_values(**XARM, law='impedance')).model.task_axes == ('x', 'y', 'z', 'rx', 'ry', 'rz')
     assert build(_values(**SO100, law='impedance')).model.task_axes == ('x', 'y', 'z')
+    # all six movable joints: the gripper's moves the jaw, not the tip; five cannot hold a pose
+    every = build(_values(**dict(SO100, joints=[]), law='impedance')).model
+    assert len(every.joint_names) == 6 and every.task_axes == ('x', 'y', 'z')
     assert build(_values(**XARM, law='impedance', task_space='position')).model.task_axes == ('x', 'y', 'z')
     # the lecture's URDF scenarios are written in the tip's position
     assert build(_values(scenario='iiwa', law='hybrid')).model.task_axes == ('x', 'y', 'z')
@@ -137,7 +140,10 @@ def test_the_default_task_space_is_the_pose_where_the_arm_can_hold_one_and_expli
 
 @pytest.mark.parametrize('arm, changes, name, match', [
     (SO100, {'task_space': 'pose'}, 'task_space',
-     r"^task_space: pose has 6 task axes: an arm of 5 joints \['shoulder_pan', .*\] cannot hold a pose"),
+     r"^task_space: pose has 6 task axes: 5 of the joints \['shoulder_pan', .*\] move the tip gripper .*, too few"),
+    (dict(SO100, joints=[]), {'task_space': 'pose'}, 'task_space',
+     r"^task_space: pose has 6 task axes: 5 of the joints \[.*'wrist_roll', 'gripper'\] move the tip gripper "
+     r"\(\['shoulder_pan', 'shoulder_lift', 'elbow_flex', 'wrist_flex', 'wrist_roll'\]\), too few to hold a pose"),
     (XARM, {'task_space': 'position', 'cartesian_stiffness': [1000.0, 1000.0, 1000.0, 100.0, 0.0, 50.0]},
      'cartesian_stiffness', r'^cartesian_stiffness: rx = 100, rz = 50 act on the orientation, which the task '
                             r"space \['x', 'y', 'z'\] does not hold: set task_space pose"),
