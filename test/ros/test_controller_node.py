@@ -538,6 +538,35 @@ def test_a_gain_rule_override_given_at_start_up_designs_the_gains(ros_context, n
         np.testing.assert_array_equal(ctrl.core.config.gains.kv, [kv, kv])
 
 
+SO100_ARM = dict(model='urdf', urdf='so_arm_description/urdf/so100.urdf', tip='gripper', law='impedance',
+                 joints=['shoulder_pan', 'shoulder_lift', 'elbow_flex', 'wrist_flex', 'wrist_roll'])
+
+
+@pytest.mark.parametrize('changes, name', [
+    ({'task_space': 'pose'}, 'task_space'),                                       # 5 joints cannot hold a pose
+    ({'cartesian_stiffness': [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0]}, 'cartesian_stiffness'),  # auto: position
+])
+def test_a_configuration_that_cannot_work_stops_the_node_at_start_up_naming_the_parameter(ros_context, changes,
+                                                                                         name):
+    from robot_control.ros.controller_params import ParameterError
+    overrides = [Parameter(k, value=v) for k, v in dict(SO100_ARM, **changes).items()]
+    with pytest.raises(ParameterError, match=f'^{name}: ') as err:
+        ControllerNode(context=ros_context, parameter_overrides=overrides)
+    assert err.value.name == name
+
+
+def test_a_configuration_that_cannot_work_is_refused_at_run_time_naming_the_parameter(ros_context):
+    """The SO-100's position task space: rotational stiffness set while running is refused, the law runs on."""
+    with rig(ros_context, **SO100_ARM) as (ex, ctrl, robot):
+        result = ctrl.set_parameters([Parameter('cartesian_stiffness', value=[800.0, 800.0, 800.0, 0.0, 0.0, 20.0])])
+        assert not result[0].successful and result[0].reason.startswith('cartesian_stiffness: rz = 20 act on the '
+                                                                        'orientation'), result[0].reason
+        assert ctrl.get_parameter('cartesian_stiffness').value in ((), [])
+        assert ctrl.set_parameters([Parameter('cartesian_stiffness', value=[800.0, 800.0, 800.0, 0.0, 0.0, 0.0])])[
+            0].successful
+        np.testing.assert_array_equal(ctrl.core.config.control_law.K, [800.0, 800.0, 800.0])
+
+
 def test_read_only_parameters_cannot_change(ros_context):
     with rig(ros_context, **POLAR) as (ex, ctrl, robot):
         for name, value in (('joints', ['a', 'b']), ('model', 'single_link'), ('scenario', 'iiwa')):
