@@ -10,11 +10,14 @@ round, B2 interleaves ping-pong, polar and iiwa runs).
 
 B1 law cost per call, us (median, p99): 2-DOF closed-form computed torque, 7-DOF iiwa computed
    torque, operational-space hybrid and Cartesian impedance (pose task space) through Pinocchio, the peer modern_robotics.ComputedTorque
-   on the same iiwa and inputs (torques checked equal within 1e-8), the floor pinocchio.rnea.
+   on the same iiwa and inputs (torques checked equal within 1e-8), the floor pinocchio.rnea (the iiwa's
+   inverse dynamics). The targets are on each law's median over rnea's median of the same run (law_vs_rnea_*).
 B2 lockstep closed loop over DDS (benchmarks.bench_ros), against a bare rclpy ping-pong; also
    the CPU time of both processes per step, which the other load of a shared machine hardly moves.
 B3 real time at 1 kHz (benchmarks.bench_ros): the polar arm, the iiwa under computed torque,
-   hybrid control on the table and Cartesian impedance; the targets hold for each run.
+   hybrid control on the table and Cartesian impedance, each after a run of the floor (the bare exchange
+   of states and commands at 1 kHz without physics and law); the targets hold for each run: missed
+   periods against the floor's, p99 latency, real-time factor.
 B4 the PyBullet World of the iiwa without ROS: physics steps per second under torque control.
 
 `make bench` runs it (`make bench QUICK=1` with --quick). --quick runs seconds instead of minutes
@@ -37,23 +40,37 @@ import numpy as np
 from benchmarks.bench_ros import REALTIME_RUNS
 from robot_control.tools import processes
 
-#: the targets: key -> (comparison, bound); the table marks each figure met or MISSED
+#: B1's laws: case -> key stem of their figures
+LAWS = {'ct_2dof': 'law_us_ct_2dof', 'ct_7dof': 'law_us_ct_7dof', 'hybrid_7dof': 'law_us_hybrid_7dof',
+        'impedance_7dof': 'law_us_impedance_7dof'}
+#: the targets: key -> (comparison, bound); the table marks each figure met or MISSED. Ratios of figures of
+#: the same run wherever the figure depends on the machine; latency and real-time factor are the loop's
+#: own requirements at 1 kHz.
 TARGETS = {
-    'law_us_ct_2dof_median': ('<=', 10.0),
-    'law_us_ct_7dof_median': ('<=', 20.0),
-    'law_us_hybrid_7dof_median': ('<=', 80.0),
-    'law_us_impedance_7dof_median': ('<=', 60.0),
+    'law_vs_rnea_ct_2dof': ('<=', 8.0),
+    'law_vs_rnea_ct_7dof': ('<=', 8.0),
+    'law_vs_rnea_hybrid_7dof': ('<=', 30.0),
+    'law_vs_rnea_impedance_7dof': ('<=', 30.0),
     'speedup_vs_modern_robotics': ('>=', 20.0),
     'lockstep_vs_pingpong_ratio': ('>=', 0.8),
-    'realtime_1khz_deadline_hit_ratio': ('>=', 0.99),
-    'realtime_latency_p99_ms': ('<', 1.0),
+    'realtime_missed_vs_floor': ('<=', 1.5),
+    'realtime_latency_p99_ms': ('<=', 1.0),
     'realtime_rtf': ('>=', 0.99),
 }
 #: B3's targets hold for each of its runs as well
 for _run in REALTIME_RUNS:
-    TARGETS.update({f'realtime_1khz_deadline_hit_ratio_{_run}': TARGETS['realtime_1khz_deadline_hit_ratio'],
+    TARGETS.update({f'realtime_missed_vs_floor_{_run}': TARGETS['realtime_missed_vs_floor'],
                     f'realtime_latency_p99_ms_{_run}': TARGETS['realtime_latency_p99_ms'],
                     f'realtime_rtf_{_run}': TARGETS['realtime_rtf']})
+#: share of its periods the floor of B3 answers in time on an idle machine fit for 1 kHz; below it the summary
+#: warns that B3's absolute figures measure the machine and its load as much as the loop
+QUIET_FLOOR = 0.99
+#: what a ratio is made of, printed beside its verdict: key -> format of the results
+BESIDE = {f'law_vs_rnea_{case}': f'{{{stem}_median:.3g}} us / rnea {{pin_rnea_us_median:.3g}} us'
+          for case, stem in LAWS.items()}
+BESIDE.update({f'realtime_missed_vs_floor_{_run}': f'{{realtime_missed_periods_{_run}:.0f}} of '
+               f'{{realtime_periods_{_run}:.0f}} periods missed, floor {{realtime_floor_missed_periods:.0f}} of '
+               '{realtime_floor_periods:.0f}' for _run in REALTIME_RUNS})
 #: tolerance of the modern_robotics cross-check, N m
 MR_TOLERANCE = 1e-8
 SEED = 6
@@ -190,14 +207,20 @@ def bench_laws(plan):
             calls = inputs[:plan.mr_calls] if name == 'mr_ct_7dof' else inputs
             time_calls(fn, calls, times[name] if r else [])
     stats = {name: median_p99_us(ns) for name, ns in times.items()}
+    rnea = stats['pin_rnea'][0]
     out = {}
-    for name, key in (('ct_2dof', 'law_us_ct_2dof'), ('ct_7dof', 'law_us_ct_7dof'),
-                      ('hybrid_7dof', 'law_us_hybrid_7dof'), ('impedance_7dof', 'law_us_impedance_7dof'),
-                      ('mr_ct_7dof', 'mr_ct_7dof_us'),
-                      ('pin_rnea', 'pin_rnea_us')):
+    for name, key in LAWS.items():
+        out[f'{key}_median'], out[f'{key}_p99'] = stats[name]
+        out[f'law_vs_rnea_{name}'] = vs_rnea(stats[name][0], rnea)
+    for name, key in (('mr_ct_7dof', 'mr_ct_7dof_us'), ('pin_rnea', 'pin_rnea_us')):
         out[f'{key}_median'], out[f'{key}_p99'] = stats[name]
     out['speedup_vs_modern_robotics'] = out['mr_ct_7dof_us_median'] / out['law_us_ct_7dof_median']
     return out
+
+
+def vs_rnea(law_us, rnea_us):
+    """A law's cost in units of Pinocchio's RNEA on the iiwa, timed in the same run: law_us / rnea_us."""
+    return law_us / rnea_us
 
 
 def bench_transport(plan):
@@ -282,19 +305,48 @@ def machine_info():
     return info
 
 
-def verdict(key, value):
-    """'met' / 'MISSED' for a key with a target, '' otherwise."""
+def met(key, value):
+    """True when `value` meets the target of `key` (which has one)."""
+    op, bound = TARGETS[key]
+    return {'<=': value <= bound, '>=': value >= bound, '<': value < bound}[op]
+
+
+def verdict(key, value, results=None):
+    """'met (op bound)' / 'MISSED (op bound)' for a key with a target, '' otherwise; with `results`, what
+    the ratio is made of follows (BESIDE)."""
     if key not in TARGETS:
         return ''
     op, bound = TARGETS[key]
-    ok = {'<=': value <= bound, '>=': value >= bound, '<': value < bound}[op]
-    return f'{"met" if ok else "MISSED"} ({op} {bound:g})'
+    text = f'{"met" if met(key, value) else "MISSED"} ({op} {bound:g})'
+    try:
+        return text + (f': {BESIDE[key].format_map(results)}' if results is not None and key in BESIDE else '')
+    except KeyError:              # a part of the ratio not measured in this run
+        return text
+
+
+def summary(results):
+    """The verdict in words: which targets of the results are met, which are missed (with their values)."""
+    keys = [k for k in results if k in TARGETS]
+    missed = [f"{k} = {results[k]:.4g} ({TARGETS[k][0]} {TARGETS[k][1]:g})" for k in keys if not met(k, results[k])]
+    lines = [f'Targets met: {len(keys) - len(missed)} of {len(keys)}: '
+             + (', '.join(k for k in keys if met(k, results[k])) or 'none') + '.']
+    if missed:
+        lines.append('Targets MISSED: ' + ', '.join(missed) + '.')
+    floor = results.get('realtime_floor_1khz_deadline_hit_ratio')
+    if floor is not None and floor < QUIET_FLOOR:
+        lines.append(f'Caution: the floor of B3 (no physics, no law) answered only {100 * floor:.1f} % of its periods '
+                     f'in time (under {100 * QUIET_FLOOR:g} %): on this machine, under its load in this run, the '
+                     'transport alone misses periods, so B3\'s absolute figures (latency, real-time factor, hit '
+                     'ratio) say as much about the machine as about the loop; missed_vs_floor compares the loop with '
+                     'the floor in the same run.')
+    return lines
 
 
 def table(results):
-    """The results as aligned text lines: metric, value, target verdict."""
+    """The results as aligned text lines: metric, value, target verdict; then the summary."""
     width = max(len(k) for k in results)
-    return [f'{k:<{width}}  {v:>12.4g}  {verdict(k, v)}'.rstrip() for k, v in results.items()]
+    rows = [f'{k:<{width}}  {v:>12.4g}  {verdict(k, v, results)}'.rstrip() for k, v in results.items()]
+    return rows + [''] + summary(results)
 
 
 def markdown(results, machine, quick):
@@ -305,8 +357,8 @@ def markdown(results, machine, quick):
             f'Pinocchio {machine["pinocchio"]}, PyBullet {machine["pybullet"]}'
             + (f'; load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} at the end (1 / 5 / 15 min).'
                if load else '.'))
-    rows = [f'| `{k}` | {v:.4g} | {verdict(k, v)} |' for k, v in results.items()]
-    return '\n'.join([head, '', '| metric | value | target |', '|---|---:|---|', *rows]) + '\n'
+    rows = [f'| `{k}` | {v:.4g} | {verdict(k, v, results)} |' for k, v in results.items()]
+    return '\n'.join([head, '', '| metric | value | target |', '|---|---:|---|', *rows, '', *summary(results)]) + '\n'
 
 
 def write_json(path, obj):

@@ -18,8 +18,12 @@ experiments iiwa_hybrid_line and impedance_push), from the samples of the whole 
 - latency of period k = reception of command k (at the bench) - publication of state k (bridge);
 - deadline hit: command k received before state k+1 was published (the bridge publishes
   right after the physics step, so this is "before the next step" up to that step's duration);
-  a period whose command never arrives is a miss;
+  a period whose command never arrives is a miss (a missed period);
 - real-time factor = simulated time advance / publication time advance of the states.
+The floor of B3: the same figures, counted the same way by the same observer, of the bare exchange
+(benchmarks.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
+physics, no law), run once before each run of REALTIME_RUNS and pooled (missed periods and periods
+summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
 Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance.
 """
 import importlib
@@ -125,15 +129,21 @@ def experiment_params(name):
     return args(exp.bridge), args(demo.controller_params(exp))
 
 
+#: the bare exchanges of benchmarks.bench_pingpong: kind -> (the scenario whose joints the messages
+#: carry, the role that stands for the bridge, the role that stands for the controller)
+BARE = {'pingpong': ('polar_two_link', 'ping', 'pong'), 'floor': ('iiwa', 'tick', 'echo')}
+
+
 def node_commands(kind, mode, experiment=None):
-    """[(name, argv)] of the two processes of a run: 'pingpong' or a scenario name, with the parameters of
-    demo experiment `experiment` (None: the scenario's file alone). The ping-pong ends use the executors of
-    the nodes they stand for: ping the bridge's, pong the controller's."""
-    if kind == 'pingpong':
-        joints = list(scenarios.get('polar_two_link').joints)
-        ends = (('ping', 'sim_bridge.bridge_node'), ('pong', 'robot_control.ros.controller_node'))
-        return [(role, ['-m', 'benchmarks.bench_pingpong', role, '--joints', *joints,
-                        '--executor', node_executor(module)]) for role, module in ends]
+    """[(name, argv)] of the two processes of a run: a kind of BARE or a scenario name, with the parameters of
+    demo experiment `experiment` (None: the scenario's file alone). The ends of a bare exchange use the
+    executors of the nodes they stand for."""
+    if kind in BARE:
+        scenario, *roles = BARE[kind]
+        joints = list(scenarios.get(scenario).joints)
+        ends = zip(roles, ('sim_bridge.bridge_node', 'robot_control.ros.controller_node'))
+        return [(role, ['-m', 'benchmarks.bench_pingpong', role, '--joints', *joints, '--period',
+                        str(PERIOD_NS / NS), '--executor', node_executor(module)]) for role, module in ends]
     params = os.path.join(ROOT, 'config', f'{kind}.yaml')
     bridge_extra, controller_extra = experiment_params(experiment)
     bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params, *bridge_extra,
@@ -307,7 +317,9 @@ def bench_lockstep(plan, env, log, logdir):
 
 # -- B3 ------------------------------------------------------------------------------------------
 def realtime_metrics(states, commands, period_ns=PERIOD_NS):
-    """{hit_ratio, latency_p50_ms, latency_p99_ms, rtf} from (stamp, source, received) rows."""
+    """{periods, missed, hit_ratio, latency_p50_ms, latency_p99_ms, rtf} from (stamp, source, received) rows:
+    `periods` observed (a state with a next state), `missed` of them (no command received before the next
+    state was published), hit_ratio = 1 - missed / periods."""
     published = {}
     for stamp, source, _ in states:
         published.setdefault(int(stamp), int(source))
@@ -323,7 +335,8 @@ def realtime_metrics(states, commands, period_ns=PERIOD_NS):
     if not len(latency):
         raise RuntimeError('realtime: no command answered an observed state')
     rtf = (stamps[-1] - stamps[0]) / (published[stamps[-1]] - published[stamps[0]])
-    return {'hit_ratio': hits / len(periods), 'latency_p50_ms': float(np.median(latency)),
+    return {'periods': len(periods), 'missed': len(periods) - hits, 'hit_ratio': hits / len(periods),
+            'latency_p50_ms': float(np.median(latency)),
             'latency_p99_ms': float(np.percentile(latency, 99)), 'rtf': float(rtf)}
 
 
@@ -341,39 +354,79 @@ def _wait_for_loop(observer, timeout_s=30.0):
     raise RuntimeError(f'realtime: no {" and no ".join(sorted(set(observer.TOPICS) - seen))} within {timeout_s:g} s')
 
 
-def realtime_run(plan):
+def realtime_run(plan, periods=None, timeout_s=START_TIMEOUT_S):
+    """measure() -> realtime_metrics of the running loop after plan.dds_warmup_s: over plan.realtime_s of
+    wall time, or (`periods` given) until that many control periods were observed (RuntimeError when they
+    were not within timeout_s)."""
     def measure(observer, procs):
         _wait_for_loop(observer)            # measure the running loop, not its start-up
         time.sleep(plan.dds_warmup_s)
         observer.drain()
-        states, commands = [], []
-        end = time.monotonic() + plan.realtime_s
-        while time.monotonic() < end:
+        states, commands, seen = [], [], 0
+        start = time.monotonic()
+        while (time.monotonic() - start < plan.realtime_s) if periods is None else seen <= periods:
+            if time.monotonic() - start > timeout_s:
+                raise RuntimeError(f'realtime: {seen} of {periods} periods within {timeout_s:g} s')
             time.sleep(POLL_S)
             states.append(observer.take('joint_states'))
             commands.append(observer.take('robot_joint_commands'))
+            seen += len(states[-1])
         procs.check_alive()
         return realtime_metrics(np.concatenate(states), np.concatenate(commands))
     return measure
 
 
+def pooled(runs):
+    """The realtime_metrics of several runs as one: periods and missed summed (hit_ratio from them), the
+    median p50 latency, the worst p99 latency and real-time factor."""
+    periods, missed = sum(m['periods'] for m in runs), sum(m['missed'] for m in runs)
+    return {'periods': periods, 'missed': missed, 'hit_ratio': 1.0 - missed / periods,
+            'latency_p50_ms': float(np.median([m['latency_p50_ms'] for m in runs])),
+            'latency_p99_ms': max(m['latency_p99_ms'] for m in runs), 'rtf': min(m['rtf'] for m in runs)}
+
+
+def missed_vs_floor(missed, periods, floor_missed, floor_periods):
+    """A run's missed periods over the floor's in as many periods:
+    missed / max(floor_missed * periods / floor_periods, 1); a floor that missed none allows one."""
+    return missed / max(floor_missed * periods / floor_periods, 1.0)
+
+
 def bench_realtime(plan, env, log, logdir):
-    """B3 metrics per run of REALTIME_RUNS and the worst of them as the headline keys."""
-    per = {}
+    """B3 metrics per run of REALTIME_RUNS, each run preceded by a run of the floor; the floor pooled, each
+    run against it, and the worst of the runs as the headline keys."""
+    per, floors = {}, {}
     with Session(env, logdir) as session:
         for key, (scenario, experiment) in REALTIME_RUNS.items():
+            floors[key] = session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}')
+            log('  floor: ' + ', '.join(f'{k} {v:.4g}' for k, v in floors[key].items()))
             per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key)
             log(f'  {key}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[key].items()))
         warn_killed(session.killed, log)
-    out = {'realtime_1khz_deadline_hit_ratio': min(m['hit_ratio'] for m in per.values()),
+    return realtime_results(per, floors)
+
+
+def realtime_results(per, floors):
+    """B3's keys from the metrics of each run and of the floor before it (`per`, `floors`: run ->
+    realtime_metrics); each run is held against the floor's runs pooled."""
+    floor = pooled(list(floors.values()))
+    vs_floor = {s: missed_vs_floor(m['missed'], m['periods'], floor['missed'], floor['periods'])
+                for s, m in per.items()}
+    out = {'realtime_missed_vs_floor': max(vs_floor.values()),
+           'realtime_1khz_deadline_hit_ratio': min(m['hit_ratio'] for m in per.values()),
            'realtime_latency_p50_ms': max(m['latency_p50_ms'] for m in per.values()),
            'realtime_latency_p99_ms': max(m['latency_p99_ms'] for m in per.values()),
-           'realtime_rtf': min(m['rtf'] for m in per.values())}
+           'realtime_rtf': min(m['rtf'] for m in per.values()),
+           'realtime_floor_missed_periods': floor['missed'], 'realtime_floor_periods': floor['periods'],
+           'realtime_floor_1khz_deadline_hit_ratio': floor['hit_ratio'],
+           'realtime_floor_latency_p50_ms': floor['latency_p50_ms'],
+           'realtime_floor_latency_p99_ms': floor['latency_p99_ms'], 'realtime_floor_rtf': floor['rtf']}
     for s, m in per.items():
-        out.update({f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
+        out.update({f'realtime_missed_vs_floor_{s}': vs_floor[s], f'realtime_missed_periods_{s}': m['missed'],
+                    f'realtime_periods_{s}': m['periods'], f'realtime_floor_missed_periods_{s}': floors[s]['missed'],
+                    f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
                     f'realtime_latency_p50_ms_{s}': m['latency_p50_ms'],
                     f'realtime_latency_p99_ms_{s}': m['latency_p99_ms'], f'realtime_rtf_{s}': m['rtf']})
-    return out
+    return {k: float(v) for k, v in out.items()}
 
 
 def warn_killed(names, log):

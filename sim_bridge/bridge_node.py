@@ -60,8 +60,8 @@ CLOCK_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)  # de
 GRAPH_PERIOD = 0.1    # s of wall time between publisher counts on the command topics
 
 def make_world(cfg):
-    """The World for a validated BridgeConfig (the only place that knows World's signature)."""
-    from sim_bridge.world import World
+    """The World for a validated BridgeConfig on its engine (the only place that knows World's signature)."""
+    from sim_bridge.engines import make_world as make
     dist = None
     if np.any(cfg.disturbance_joint_torque) or np.any(cfg.disturbance_cartesian_force):
         dist = {'joint_torque': cfg.disturbance_joint_torque,
@@ -69,9 +69,10 @@ def make_world(cfg):
     surface = False
     if cfg.surface_enable:
         surface = dataclasses.replace(scenarios.get(cfg.scenario).surface, k_e=cfg.k_e, x_e=cfg.x_e)
-    return World(cfg.scenario or None, gui=cfg.gui, dt=cfg.physics_step, params=cfg.sim_params or None,
-                 urdf=cfg.urdf or None, joints=cfg.joints, q0=cfg.initial_positions, surface=surface,
-                 disturbance=dist, payload=cfg.payload)
+    return make(cfg.engine, cfg.scenario or None, gui=cfg.gui, dt=cfg.physics_step,
+                params=cfg.sim_params or None, urdf=cfg.urdf or None, joints=cfg.joints,
+                q0=cfg.initial_positions, surface=surface, disturbance=dist, payload=cfg.payload,
+                friction=cfg.friction)
 
 
 class SimBridge(ParameterNode):
@@ -150,6 +151,8 @@ class SimBridge(ParameterNode):
         old, cfg = old.config, new.config
         self.cfg = cfg
         self._loop.configure(cfg)
+        if cfg.friction != old.friction:
+            self._world.set_friction(cfg.friction)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         if cfg.diagnostics_period != old.diagnostics_period:
             self.destroy_timer(self._diag_timer)

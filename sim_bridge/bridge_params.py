@@ -6,14 +6,17 @@ without DDS.
 Stages: `scenario` and `urdf` choose the robot, `joints` defaults to the scenario's, and every
 other default is the scenario's own value (joints, initial positions, surface, physical
 parameters), so `ros2 param get` shows what the simulator really uses. Only real_time_factor,
-command_timeout, lockstep_timeout, disturbance.*, pause_at and diagnostics_period may change at run time.
-The sensor model's rows (noise.*, encoder_resolution, wrench_bias, delay.*, seed) are sim_bridge.sensors'.
+command_timeout, lockstep_timeout, disturbance.*, friction.*, armature, pause_at and diagnostics_period may
+change at run time. The sensor model's rows (noise.*, encoder_resolution, wrench_bias, delay.*, seed) are
+sim_bridge.sensors', the joint friction's sim_bridge.joint_friction's.
 
 `sim_params.*` are the simulated robot's true physical parameters (one per parameter of the
 scenario's closed-form model, e.g. m and gravity for polar_two_link): set them differently from
 the controller's model to create a model-error payload (e.g. `sim_params.m: 2.5` on
 polar_two_link while the controller keeps m = 2.0; the World regenerates the robot's URDF).
-For URDF robots (iiwa) only gravity can be overridden; a payload is a modified URDF (`urdf`).
+For URDF robots (iiwa) gravity and the links (sim_params.mass_scale, inertia_scale, com_offset:
+sim_bridge.true_robot) can be changed; `urdf` may also be another file than the controller's (e.g. with
+a payload).
 `disturbance.joint_torque` is added to the actuator torque: the lecture's load d (m xdd + ... + d = u)
 is its negative.
 
@@ -27,9 +30,10 @@ from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
 from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.validation import ArgumentError
+from sim_bridge.engines import ENGINES
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, lt_eq, not_empty, one_of,
                                            size, unique)
-from sim_bridge import sensors
+from sim_bridge import joint_friction, sensors, true_robot
 
 MODES = ('realtime', 'lockstep')
 SIM_PARAMS = 'sim_params.'
@@ -119,6 +123,7 @@ def rows(values):
         _fixed('payload.com', 'double_array', (0.0, 0.0, 0.0), "The payload's centre of mass in the tip link's "
                'frame, m.', [size(3)]),
     ]
+    out += joint_friction.rows(n)
     for key, value in sorted((sc.params if sc else {}).items()):
         out.append(_fixed(f'{SIM_PARAMS}{key}', 'double', float(value),
                           f'Simulated robot physical parameter {key!r}, {PARAMETER_UNITS[key]}; differ from the '
@@ -127,7 +132,9 @@ def rows(values):
     if sc is None or sc.model == 'urdf':
         out.append(_fixed(f'{SIM_PARAMS}gravity', 'double', units.GRAVITY,
                           'Gravitational acceleration of the simulated URDF robot, m/s^2 along world -z '
-                          '(a heavier or lighter robot: point `urdf` at a modified URDF file).', [gt_eq(0)]))
+                          '(a heavier or lighter robot: sim_params.mass_scale, or `urdf` naming a modified URDF '
+                          'file).', [gt_eq(0)]))
+        out += true_robot.rows(n)
     out += [
         _fixed('wrench_frame_id', 'string', 'world',
                'frame_id of ft_sensor/wrench; the wrench is expressed in the world frame.', [not_empty()]),
@@ -137,6 +144,8 @@ def rows(values):
             'at or past it (a time already past: the next tick). Negative: never. Each new value arms it once; '
             '~/pause false resumes. Run-time changes made while paused act from the tick it paused at.'),
         _fixed('gui', 'bool', False, 'Open the PyBullet GUI (needs a display).'),
+        _fixed('engine', 'string', 'pybullet', f'Physics engine of the simulated robot, one of {list(ENGINES)}.',
+               [one_of(list(ENGINES))]),
     ]
     return out
 
@@ -169,12 +178,14 @@ class BridgeConfig:
     disturbance_joint_torque: np.ndarray
     disturbance_cartesian_force: np.ndarray
     sim_params: dict
+    friction: joint_friction.JointFriction
     payload: tuple
     wrench_frame_id: str
     diagnostics_period: float
     pause_at: float
     gui: bool
     sensors: sensors.SensorModel
+    engine: str = 'pybullet'
 
     @property
     def n(self):
@@ -221,6 +232,10 @@ def build(values):
         if sc is None and np.any(v[name]):
             raise ParameterError(name, "needs a tip link to act at: a scenario's robot has one (parameter "
                                        "scenario); a custom URDF robot (scenario '') has none")
+    friction = joint_friction.from_values(v, n)
+    if v['engine'] != 'pybullet' and friction.active:
+        raise ParameterError('friction.coulomb', f"joint friction and armature are modelled on the pybullet engine "
+                                                 f"only; engine is {v['engine']!r}")
     sim_params = {k[len(SIM_PARAMS):]: value for k, value in v.items() if k.startswith(SIM_PARAMS)}
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=tuple(joints), initial_positions=np.array(v['initial_positions']),
@@ -231,9 +246,10 @@ def build(values):
         surface_enable=v['surface.enable'], k_e=v['surface.k_e'], x_e=v['surface.x_e'],
         disturbance_joint_torque=_vector(v['disturbance.joint_torque'], n),
         disturbance_cartesian_force=_vector(v['disturbance.cartesian_force'], 3), sim_params=sim_params,
+        friction=friction,
         payload=(v['payload.mass'], tuple(v['payload.com'])) if v['payload.mass'] else None,
         wrench_frame_id=v['wrench_frame_id'], diagnostics_period=v['diagnostics_period'], pause_at=v['pause_at'],
-        gui=v['gui'], sensors=sensors.model(v))
+        gui=v['gui'], sensors=sensors.model(v), engine=v['engine'])
 
 
 def validate(values):

@@ -20,9 +20,10 @@ every n_x ~ N(0, std_x) drawn anew per tick and entry from the stream x:
   World's velocity), with velocity noise n_qd added like any joint's.
 - Effort: the torque a link-side joint torque sensor measures (the iiwa and the Panda have one in every
   joint): what the motor applies less what the drive's friction and the rotor's inertia (armature I_a)
-  take, tau_sensor = tau_motor - tau_friction - I_a qdd. tau_loss is read from the World's
-  `joint_friction_torque()` ((n,) N m or N, of the last step) when it has that method, else 0: then the
-  effort is the actuator torque applied (the clipped command, or the brake motors' torque while braked).
+  take, tau_sensor = tau_motor - tau_friction - I_a qdd. tau_loss is the World's
+  `joint_friction_torque()` ((n,) N m or N, of the last step) when friction or armature is set
+  (sim_bridge.joint_friction), else 0: then the effort is the actuator torque applied (the clipped
+  command, or the brake motors' torque while braked).
 - F/T sensor: the bias b (wrench_bias) and the noise are in the axes of the published wrench (world).
 - Random streams: position, velocity, effort, wrench, each a numpy Generator of its own child of
   SeedSequence(seed); all restart on start and reset, and draws happen once per tick (never per
@@ -164,7 +165,7 @@ def link_torque(tau_motor, tau_loss):
 class Sensors:
     """The World's readings as the driver delivers them (module docstring), with the World's reading interface
     (t_ns, state_values(), contact_wrench()), so the node publishes either. `loss`: the World's
-    joint_friction_torque method, or None."""
+    joint_friction_torque method (friction or armature set), or None."""
 
     def __init__(self, world, sensor_model, control_period_ns, loss=None):
         self._world, self._m = world, sensor_model
@@ -268,7 +269,8 @@ class Driver:
 
     def __init__(self, world, sensor_model, control_period_ns):
         self._world = world
-        loss = getattr(world, 'joint_friction_torque', None)     # the friction model's, when the World has one
+        friction = getattr(world, 'friction', None)     # the drive's friction and rotor inertia, when modelled
+        loss = world.joint_friction_torque if friction is not None and friction.active else None
         self._sensors = (Sensors(world, sensor_model, control_period_ns, loss)
                          if sensor_model.measuring or loss is not None else None)
         self._line = ActuationLine(world, sensor_model.actuation_ticks) if sensor_model.actuation_ticks else None

@@ -1,17 +1,20 @@
 """The PyBullet world: the "real robot" of every scenario. No rclpy, no messages.
 
-    M(q) qdd + C(q, qd) qd + g(q) = tau + tau_env,   tau = clip(command, effort limits)
+    (M(q) + diag(I_a)) qdd + C(q, qd) qd + g(q) = tau + tau_env + tau_f,   tau = clip(command, effort limits)
 
 tau_env holds what the world adds: the mass-spring's -k x^3 - b xd, contact with the surface,
-and the configured disturbance. Units SI (rad, m, N m, N, s); time is kept as integer
-nanoseconds. Each World owns one PyBullet physics client (DIRECT unless gui=True).
+and the configured disturbance; tau_f and the armature I_a are the joints' friction and rotor inertia
+(sim_bridge.joint_friction; zero unless configured). The simulated robot is the given URDF, or the
+scenario's closed form with `params`, with its links changed by `params` (sim_bridge.true_robot).
+Units SI (rad, m, N m, N, s); time is kept as integer nanoseconds. Each World owns one PyBullet
+physics client (DIRECT unless gui=True).
 
 PyBullet facts respected: URDF loaded with URDF_USE_INERTIA_FROM_FILE and a fixed
 base, from a copy whose links without <inertial> have an explicit zero one (PyBullet's default
 would be 1 kg, 1 kg m^2) and whose meshes are absolute file:// URIs; default velocity motors
 disabled (VELOCITY_CONTROL, force 0); link linear/angular damping (default 0.04) and URDF joint
-damping zeroed; the torque is re-sent before every stepSimulation
-(PyBullet clears applied torques after each step); fixed step dt without substeps.
+damping zeroed (joint damping then carries friction.viscous alone); the torque is re-sent before
+every stepSimulation (PyBullet clears applied torques after each step); fixed step dt without substeps.
 """
 import math
 import os
@@ -27,8 +30,10 @@ from robot_control import scenarios, units, validation
 from robot_control import urdf as urdf_files
 from robot_control.urdf import checks
 from robot_control.models import make_model, urdf_gen
-from sim_bridge import physics_check, surfaces
+from sim_bridge import physics_check, surfaces, true_robot
 from sim_bridge.disturbance import Disturbance
+from sim_bridge.joint_friction import JointFriction
+from sim_bridge.joint_physics import JointPhysics
 
 #: world gravity when neither the scenario nor `params` sets one, m/s^2
 #: brake holding force where the URDF sets no effort limit, N m or N
@@ -68,9 +73,10 @@ def _truth(sc, params):
     base = dict(sc.params) if sc is not None else {}
     truth, model = {**base, **params}, None
     if sc is None or sc.model == 'urdf':
-        unknown = sorted(set(params) - {'gravity'})
+        unknown = sorted(set(params) - {'gravity', *true_robot.KEYS})
         if unknown:
-            raise ArgumentError('params', f'unknown {unknown} for a URDF robot; only gravity can be set')
+            raise ArgumentError('params', f'unknown {unknown} for a URDF robot; expected some of '
+                                          f"{['gravity', *true_robot.KEYS]}")
     else:
         try:
             model = make_model(sc.model, **truth)
@@ -114,6 +120,18 @@ def _with_payload(path, tip, payload, tmpdir):
     return out
 
 
+def _changed_links(path, joints, changes, tmpdir):
+    """The URDF at `path` with its links changed (sim_bridge.true_robot), or `path` when `changes` is None."""
+    if changes is None:
+        return path
+    with open(path, encoding='utf-8') as f:
+        xml = true_robot.with_changed_links(f.read(), joints, *changes)
+    out = os.path.join(tmpdir, 'changed_links.urdf')
+    with open(out, 'w', encoding='utf-8') as f:
+        f.write(xml)
+    return out
+
+
 def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payload, tmpdir):
     """The build specification; every check that can fail before PyBullet runs."""
     truth, model, gravity = _truth(sc, params)
@@ -132,6 +150,8 @@ def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payloa
     joints = validation.names('joints', sc.joints if joints is None else joints)
     if not joints:
         raise ArgumentError('joints', 'expected at least one joint')
+    if not closed_form:
+        path = _changed_links(path, joints, true_robot.changes(truth, len(joints)), tmpdir)
     start = q0 if q0 is not None else (sc.q0 if sc is not None else np.zeros(len(joints)))
     q0 = validation.vector('q0', start, len(joints))
     if tip is None and sc is not None:
@@ -181,24 +201,66 @@ def _check_travel(joints, q0, travel):
             raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
 
 
+def _indices(client, body, joints, tip):
+    """(PyBullet indices of the controlled `joints`, their travel [(lower, upper)], the indices of the other
+    movable joints, the effort limits (n,) N m or N (inf where the URDF sets none), the index of link `tip`
+    or None); ArgumentError naming joints or tip when the URDF lacks one."""
+    movable, links, limits, travel = {}, {}, {}, {}
+    for j in range(p.getNumJoints(body, physicsClientId=client)):
+        info = p.getJointInfo(body, j, physicsClientId=client)
+        links[info[12].decode()] = j
+        if info[2] != p.JOINT_FIXED:
+            movable[info[1].decode()] = j
+            limits[j] = info[10] if info[10] > 0.0 else math.inf
+            travel[j] = (info[8], info[9])
+    unknown = [name for name in joints if name not in movable]
+    if unknown:
+        raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
+    idx = [movable[name] for name in joints]
+    if tip is not None and tip not in links:
+        raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
+    return (idx, [travel[j] for j in idx], [j for j in movable.values() if j not in idx],
+            np.array([limits[j] for j in idx]), links.get(tip) if tip is not None else None)
+
+
+def _make_wall(world, client, body, tip):
+    """The surface of `world`'s spec (surfaces.Wall) that only the tip link `tip` touches."""
+    spec = world._spec
+    normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
+    radius = surfaces.tip_radius(client, body, tip)
+    half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
+    wall = surfaces.Wall(client, spec.surface, normal, radius, world.tip_position(), spec.surface_damping, half)
+    # The lecture's environment is a spring on the tip: only the tip's probe touches the surface.
+    # (The iiwa's wrist, lbr_iiwa_link_6, reaches the table top next to lbr_iiwa_link_7's origin.)
+    for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
+        if link != tip:
+            p.setCollisionFilterPair(body, wall.body, link, -1, 0, physicsClientId=client)
+    return wall
+
+
 class World:
     """A PyBullet world stepping one robot under a held joint torque.
 
     scenario: name or Scenario (robot_control.scenarios), or None with urdf= and joints=.
     gui: open the PyBullet GUI instead of DIRECT. dt: physics step, s (a whole number of ns).
     params: physical overrides of the simulated robot (e.g. {'m': 2.5}: heavier than the
-      controller's model); closed-form URDFs are regenerated; 'gravity' (m/s^2) for any robot.
+      controller's model); closed-form URDFs are regenerated; 'gravity' (m/s^2) for any robot; for a
+      URDF robot 'mass_scale', 'inertia_scale' ((n,) or one factor) and 'com_offset' ((3 n,) m) change the
+      link each joint moves (sim_bridge.true_robot).
     urdf, joints, q0, tip: override the scenario's URDF file, joint names (command order),
       start positions (rad or m) and tip link.
     surface: True (the scenario's), False, or a scenarios.Surface. surface_damping: N s/m.
     payload: None or (mass kg, com (3,) m in the tip link's frame): robot_control.urdf.with_payload.
     disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
+    friction: None or {'coulomb': (n,) N m or N, 'viscous': (n,) N m s/rad or N s/m, 'armature': (n,)
+      kg m^2 or kg} of the joints (sim_bridge.joint_friction; see set_friction); None: all zero. The
+      attribute `friction` is the JointFriction in force (read it; change it with set_friction).
     report: the start-up report, a list of strings: the URDF's warnings and where PyBullet's physics at the
       start state differs from Pinocchio's on the same URDF (sim_bridge.physics_check.report).
     """
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
-                 surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None):
+                 surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None, friction=None):
         self.scenario = _scenario(scenario)
         self.dt_ns = _whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
@@ -208,6 +270,7 @@ class World:
             self._spec = _resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
                                   payload, self._tmpdir)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
+            self.friction = JointFriction.of(self.n, friction)
             self._client = p.connect(p.GUI if gui else p.DIRECT)
             if self._client < 0:
                 raise RuntimeError('pybullet: cannot connect a physics client')
@@ -289,58 +352,22 @@ class World:
                                     physicsClientId=c)
         except p.error as exc:
             raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
-        self._index_joints()
+        indices = _indices(c, self._body, spec.joints, spec.tip)
+        self._idx, self._travel, self._others, self._limit, self._tip = indices
+        self._neg_limit, self._limit_min = -self._limit, float(np.min(self._limit))
+        self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
         _zero_damping(c, self._body)
+        self._joints = JointPhysics(c, self._body, self._idx, self._tip, self.dt, self.friction)
         _hold(c, self._body, self._others)
         p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
                                     physicsClientId=c)
         _check_travel(self._spec.joints, q0, self._travel)
         for i, q in zip(self._idx, q0):
             p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
-        self._wall = self._make_wall() if spec.surface is not None else None
+        self._wall = _make_wall(self, c, self._body, self._tip) if spec.surface is not None else None
         self.t_ns = 0
         self._tau_list = [0.0] * self.n         # the held torque, as PyBullet is sent it
         self._brake = None
-
-    def _index_joints(self):
-        """PyBullet indices of the controlled joints and the tip link; effort limits."""
-        c, body = self._client, self._body
-        movable, links, limits, travel = {}, {}, {}, {}
-        for j in range(p.getNumJoints(body, physicsClientId=c)):
-            info = p.getJointInfo(body, j, physicsClientId=c)
-            links[info[12].decode()] = j
-            if info[2] != p.JOINT_FIXED:
-                movable[info[1].decode()] = j
-                limits[j] = info[10] if info[10] > 0.0 else math.inf
-                travel[j] = (info[8], info[9])
-        unknown = [name for name in self._spec.joints if name not in movable]
-        if unknown:
-            raise ArgumentError('joints', f'unknown {unknown}; the URDF\'s movable joints are {list(movable)}')
-        self._idx = [movable[name] for name in self._spec.joints]
-        self._travel = [travel[j] for j in self._idx]
-        self._others = [j for j in movable.values() if j not in self._idx]
-        self._limit = np.array([limits[j] for j in self._idx])
-        self._neg_limit = -self._limit
-        self._limit_min = float(np.min(self._limit))
-        self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
-        tip = self._spec.tip
-        if tip is not None and tip not in links:
-            raise ArgumentError('tip', f'unknown link {tip!r}; the URDF\'s links are {list(links)}')
-        self._tip = links.get(tip) if tip is not None else None
-
-    def _make_wall(self):
-        spec = self._spec
-        normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
-        radius = surfaces.tip_radius(self._client, self._body, self._tip)
-        half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
-        wall = surfaces.Wall(self._client, spec.surface, normal, radius, self.tip_position(), spec.surface_damping,
-                             half)
-        # The lecture's environment is a spring on the tip: only the tip's probe touches the surface.
-        # (The iiwa's wrist, lbr_iiwa_link_6, reaches the table top next to lbr_iiwa_link_7's origin.)
-        for link in range(-1, p.getNumJoints(self._body, physicsClientId=self._client)):
-            if link != self._tip:
-                p.setCollisionFilterPair(self._body, wall.body, link, -1, 0, physicsClientId=self._client)
-        return wall
 
     def reset(self, q0=None):
         """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
@@ -397,6 +424,22 @@ class World:
         (3,) N in world axes at the tip frame origin. None means zero; held until changed."""
         self._disturbance = Disturbance(self.n, joint_torque, cartesian_force, self._tip is not None)
 
+    def joint_friction_torque(self):
+        """tau_loss = tau_friction + I_a qdd (n,), N m or N, of the last step: what the drive's friction (Coulomb
+        and viscous b qd) and rotor inertia take from the motor torque, so that a link-side joint torque sensor
+        reads tau_motor - tau_loss (sim_bridge.sensors). Zeros without friction and armature, or while braked."""
+        fr = self.friction
+        if not fr.active or self._brake is not None:
+            return np.zeros(self.n)
+        if self._joints.exact:
+            return np.zeros(self.n) if self._joints.loss is None else self._joints.loss
+        return fr.viscous * np.array(self.state_values()[1])
+
+    def set_friction(self, friction):
+        """Replace the joints' friction and armature (the World's `friction` argument), from the next step."""
+        self.friction = JointFriction.of(self.n, friction)
+        self._joints.set(self.friction)
+
     @property
     def disturbance(self):
         """(joint_torque (n,), cartesian_force (3,)) in force, read-only arrays."""
@@ -432,7 +475,8 @@ class World:
             self.t_ns += self.dt_ns
 
     def _apply_loads(self):
-        """Joint torque (actuator unless braked, disturbance, mass-spring) and the Cartesian force."""
+        """Joint torque (actuator unless braked, disturbance, mass-spring, friction and armature) and the
+        Cartesian force."""
         c, spec, dist = self._client, self._spec, self._disturbance
         if self._brake is None and spec.spring is None and not dist.has_joint_torque:
             forces = self._tau_list         # the common case: the actuator torque alone
@@ -442,6 +486,9 @@ class World:
                 x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
                 tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
             forces = tau.tolist()
+        if self._joints.exact:
+            force = dist.cartesian_force if dist.has_force else None
+            forces = self._joints.torque(forces, force, self._brake is not None)
         p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=forces, physicsClientId=c)
         if dist.has_force:
             p.applyExternalForce(self._body, self._tip, self._disturbance.cartesian_force.tolist(),

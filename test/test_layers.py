@@ -22,8 +22,12 @@ NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'ro
          'robot_control.scenarios', 'robot_control.ros.cdr', 'robot_control.core.throttle',
          'robot_control.param_table', 'robot_control.ros.controller_params', 'robot_control.ros.config_builder',
          'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.pacing',
-         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check', 'sim_bridge.sensors']
-PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.physics_check'}
+         'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check',
+         'sim_bridge.joint_friction', 'sim_bridge.joint_physics', 'sim_bridge.sensors',
+         'sim_bridge.mujoco_world', 'sim_bridge.mujoco_model', 'sim_bridge.engines']
+#: the worlds and what they build on may import a physics engine (pybullet, mujoco); nothing else may
+PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.physics_check', 'sim_bridge.joint_physics',
+                    'sim_bridge.mujoco_world', 'sim_bridge.mujoco_model'}
 
 
 def _exists(name):
@@ -48,7 +52,7 @@ print(json.dumps(sorted(sys.modules)))
 def _forbidden(module, allow_pybullet):
     top = module.split('.')[0]
     ros = top == 'rclpy' or top.endswith('_msgs') or top == 'builtin_interfaces' or top.startswith('rosidl')
-    bullet = top in ('pybullet', 'pybullet_utils', 'pybullet_envs')  # pybullet_data is data only
+    bullet = top in ('pybullet', 'pybullet_utils', 'pybullet_envs', 'mujoco')  # pybullet_data is data only
     return ros or (bullet and not allow_pybullet)
 
 
@@ -80,6 +84,7 @@ def test_the_probe_detects_a_forbidden_import():
     assert bad == ['pybullet']
     assert _forbidden('sensor_msgs.msg', True) and _forbidden('rclpy.node', True)
     assert not _forbidden('pybullet', True) and not _forbidden('pybullet_data', False)
+    assert _forbidden('mujoco', False) and not _forbidden('mujoco', True)
 
 
 #: a module of a layer may import its own layer and the ones below it, never one above

@@ -14,6 +14,7 @@ from robot_control import validation
 from robot_control.core.tolerances import Tolerances
 from robot_control.gains import ServoGains
 from robot_control.laws import law_class
+from robot_control.laws.friction_compensation import FrictionCompensation
 from robot_control.models.base import RobotModel
 from robot_control.validation import ArgumentError
 
@@ -58,6 +59,9 @@ class ControllerConfig:
     trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
       goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
       (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
+    friction_compensation: tau_f = Fc tanh(v / v_s) + Fv v added to every law's torque: a mapping of
+      coulomb, viscous, velocity_threshold, velocity, or a FrictionCompensation
+      (robot_control.laws.friction_compensation); held as that, or None when off (Fc = Fv = 0).
     """
 
     model: RobotModel
@@ -84,6 +88,7 @@ class ControllerConfig:
     goal_time: float = 0.0
     stopped_velocity_tolerance: float = 0.01
     law_params: object = None
+    friction_compensation: object = None
 
     def __post_init__(self):
         model = self.model
@@ -117,6 +122,7 @@ class ControllerConfig:
             set_(name, float(value))
         self._set_tolerances(set_)
         set_('law_params', law.make_params(self.law_params))
+        set_('friction_compensation', FrictionCompensation.of(self.friction_compensation, model.n))
         set_('_law', law(self))
 
     def _set_force_axes(self, set_):
@@ -185,7 +191,8 @@ class ControllerConfig:
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
         return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
                 self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
-                self.posture_gains, self.integral_limit, self.control_period, self.law_params)
+                self.posture_gains, self.integral_limit, self.control_period, self.law_params,
+                self.friction_compensation)
 
     def replace(self, **changes):
         """A copy with `changes` (checked)."""

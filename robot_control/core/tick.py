@@ -12,7 +12,8 @@ state (t in s on its time line) and returns the torque as its command. One tick:
   4. the law's errors, then its integral (robot_control.laws.integral: clamp, anti-windup,
      bumpless re-initialisation);
   5. the law's torque, evaluated once; if it fails (a singular task Jacobian, a non-finite result)
-     the gravity hold g(q) instead, counted in `fallbacks`;
+     the gravity hold g(q) instead, counted in `fallbacks`; plus the friction compensation when on
+     (robot_control.laws.friction_compensation);
   6. saturation to the effort limits, with back-calculation of the integral on saturated ticks
      (from the law's closed-form integral map B = d tau / d int E: no second evaluation).
 
@@ -276,6 +277,8 @@ class ControllerCore:
         self._err = err = law.errors(state, ref)
         int_E, bumpless = self._integrate(err.E, dt)
         tau, int_E = self._evaluate(state, ref, err, int_E)
+        if self._cfg.friction_compensation is not None:
+            tau = tau + self._cfg.friction_compensation.torque(state, ref)
         if bumpless and int_E is not None:
             tau = self._reinitialise(state, ref, err, tau)
         return self._saturate(state, ref, err, tau, int_E, dt)

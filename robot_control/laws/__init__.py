@@ -4,6 +4,7 @@ servo: the servo portion v = qdd_d + Kv Ed + Kp E + Ki int E.  Integral: the err
 computed_torque: tau = M v + C qd + g.  independent_joint: tau = Kp E + Kv Ed + Ki int E.
 force_1dof: tau = m v + f.  hybrid: hybrid position/force control in operational space.
 gravity_compensation: tau = g(q).  impedance: Cartesian impedance in operational space.  saturate: clip to the effort limits, with the saturated mask.
+joint_impedance: tau = M qdd_d + C qd + g + K E + D Ed (+ Ki int E), K in N m/rad.
 
 LAWS is the registry the controller core and the tools ask: law name -> Law class (laws.base).
 A new law is one module with its equation and its Law class, and one entry here.
@@ -15,6 +16,7 @@ from robot_control.laws.gravity_compensation import GravityCompensation, gravity
 from robot_control.laws.hybrid import Hybrid, hybrid, hybrid_error, hybrid_servo
 from robot_control.laws.impedance import Impedance, impedance
 from robot_control.laws.independent_joint import IndependentJoint, independent_joint
+from robot_control.laws.joint_impedance import JointImpedance, joint_impedance
 from robot_control.laws.operational_space import operational_space, posture_acceleration
 from robot_control.laws.saturation import saturate
 from robot_control.laws.integral import Integral
@@ -22,7 +24,8 @@ from robot_control.laws.servo import servo
 from robot_control.validation import ArgumentError
 
 #: law name -> Law class, in the order the parameter table lists them
-LAWS = {law.name: law for law in (ComputedTorque, IndependentJoint, Force, Hybrid, GravityCompensation, Impedance)}
+LAWS = {law.name: law for law in (ComputedTorque, IndependentJoint, Force, Hybrid, GravityCompensation, Impedance,
+                                  JointImpedance)}
 
 
 def law_class(name):
@@ -35,4 +38,4 @@ def law_class(name):
 
 __all__ = ['LAWS', 'Law', 'State', 'Reference', 'Errors', 'law_class', 'Integral', 'servo', 'computed_torque', 'independent_joint',
            'force_1dof', 'spring_force', 'hybrid', 'hybrid_error', 'hybrid_servo', 'operational_space',
-           'posture_acceleration', 'gravity_compensation', 'impedance', 'saturate']
+           'posture_acceleration', 'gravity_compensation', 'impedance', 'joint_impedance', 'saturate']

@@ -183,8 +183,9 @@ _DEFAULTS = {row.name: row.default for row in PARAM_ROWS}
 @dataclasses.dataclass(frozen=True)
 class ImpedanceParams:
     """The impedance law's parameters (PARAM_ROWS), checked: cartesian_stiffness six values >= 0 (x, y, z
-    N/m; rx, ry, rz N m/rad) or empty for the design (module docstring); cartesian_damping six values >= 0 (N s/m, N m s/rad) or empty for the design
-    of cartesian_damping_ratio (>= 0); max_pose_error (m, rad) > 0, the bounds of the task error."""
+    N/m; rx, ry, rz N m/rad) or empty for the design (module docstring); cartesian_damping six values >= 0
+    (N s/m, N m s/rad) or empty for the design of cartesian_damping_ratio (>= 0); max_pose_error (m, rad) > 0,
+    the bounds of the task error."""
 
     cartesian_stiffness: tuple = _DEFAULTS['cartesian_stiffness']
     cartesian_damping_ratio: float = _DEFAULTS['cartesian_damping_ratio']

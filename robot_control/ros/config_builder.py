@@ -14,7 +14,7 @@ from robot_control import gains as gain_design
 from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
 from robot_control.gains import ServoGains
-from robot_control.laws import law_class
+from robot_control.laws import friction_compensation, law_class
 from robot_control.models import make_model
 from robot_control.models.base import POSE_JOINTS
 from robot_control.param_table import ParameterError
@@ -117,7 +117,9 @@ class ConfigBuilder:
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
-            control_period=values['control_period'], law_params={row.name: values[row.name] for row in law.param_rows})
+            control_period=values['control_period'],
+            law_params={row.name: values[row.name] for row in law.param_rows},
+            friction_compensation=friction_compensation.values_of(values))
         q_d = values['q_d']
         if q_d and len(q_d) != model.n:
             raise ParameterError('q_d', f'expected empty or {model.n} values (one per joint), got {len(q_d)}')

@@ -20,6 +20,7 @@ from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
 from robot_control.core.config import FORCE_FEEDBACK
 from robot_control.laws import LAWS
+from robot_control.laws import friction_compensation
 from robot_control.models import CLOSED_FORM
 from robot_control.models.closed_form import MAY_BE_ZERO, PARAMETER_UNITS
 from robot_control.param_table import (ParameterError, Row, Table, custom, gt, gt_eq, one_of, size,  # noqa: F401
@@ -96,7 +97,7 @@ def rows(values):
         d['joints'] = CLOSED_FORM[model].joint_names
     get = d.get
     return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + force_rows(get, model)
-            + motion_rows() + law_rows() + node_rows())
+            + motion_rows() + law_rows() + list(friction_compensation.PARAM_ROWS) + node_rows())
 
 
 def robot_rows(get):

@@ -30,7 +30,8 @@ REALISM = {
     'friction.coulomb': JOINT,            # N m or N
     'friction.viscous': JOINT,            # N m s/rad
     'armature': JOINT,                    # kg m^2
-    'sim_params.mass_scale': SCALE,       # 1
+    'sim_params.mass_scale': JOINT,       # 1
+    'sim_params.inertia_scale': JOINT,    # 1
     'noise.position_std': JOINT,          # rad
     'noise.velocity_std': JOINT,          # rad/s
     'encoder_resolution': JOINT,          # rad per count
@@ -113,3 +114,24 @@ def test_profile_stacks_after_its_scenario_file(path):
     profile = flatten(_load(path)[BRIDGE]['ros__parameters'])
     assert not set(scenario) & set(profile)
     assert 'sim_params.gravity' in scenario
+
+
+@pytest.mark.parametrize('path', PROFILES, ids=os.path.basename)
+def test_profile_names_are_bridge_parameters_and_the_stack_builds(path):
+    """The contract above is the bridge's own table: every name is one of its rows for the scenario, and the
+    scenario's bridge parameters with the profile stacked on them build a configuration whose friction,
+    sensors and link scaling are the profile's."""
+    from sim_bridge import bridge_params
+    scenario = _scenario(path)
+    stacked = {**flatten(_load(os.path.join(CONFIG, f'{scenario}.yaml'))[BRIDGE]['ros__parameters']),
+               **flatten(_load(path)[BRIDGE]['ros__parameters'])}
+    values = bridge_params.defaults(scenario, **{k: tuple(v) if isinstance(v, list) else v
+                                                 for k, v in stacked.items()})
+    rows = {row.name for row in bridge_params.TABLE.resolve(lambda row: values.get(row.name, row.default))[0]}
+    profile = flatten(_load(path)[BRIDGE]['ros__parameters'])
+    assert set(profile) <= rows, sorted(set(profile) - rows)
+    cfg = bridge_params.validate(values)
+    assert cfg.friction.coulomb.tolist() == profile['friction.coulomb']
+    assert cfg.friction.armature.tolist() == profile['armature']
+    assert cfg.sensors.measurement_ticks == profile['delay.measurement_ticks']
+    assert list(cfg.sim_params['mass_scale']) == profile['sim_params.mass_scale']

@@ -1,5 +1,5 @@
 """The bridge without ROS: pacing pieces and command checks (sim_bridge.pacing), the loop's decisions over a
-real World (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_params)."""
+real World on each engine (sim_bridge.bridge_loop), parameter validation (sim_bridge.bridge_params)."""
 import array
 import dataclasses
 import math
@@ -12,9 +12,9 @@ from robot_control.models import make_model
 from robot_control.core.throttle import Throttle
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import LockstepLoop, RealtimeLoop, make_loop
+from sim_bridge.engines import ENGINES, make_world
 from sim_bridge.pacing import (REJECT_REASONS, CommandMapper, CommandWatchdog, LockstepGate, RateMeter, RealtimePacer,
                              SourceGuard, stamp_ns)
-from sim_bridge.world import World
 
 MS = 1_000_000
 
@@ -215,13 +215,14 @@ def test_defaults_validate_for_every_scenario():
         assert set(cfg.sim_params) >= set(sc.params)
 
 
-def test_every_parameter_has_a_description_and_only_the_pacing_disturbances_and_pause_at_change_at_run_time():
+def test_every_parameter_has_a_description_and_only_pacing_disturbances_friction_and_pause_at_change_at_run_time():
     rows, _ = bridge_params.TABLE.resolve(lambda row: 'iiwa' if row.name == 'scenario' else row.default)
     for row in rows:
         assert row.description and row.type in ('bool', 'integer', 'double', 'string', 'double_array', 'string_array')
     assert {row.name for row in rows if not row.read_only} == {
         'real_time_factor', 'command_timeout', 'lockstep_timeout', 'disturbance.joint_torque',
-        'disturbance.cartesian_force', 'diagnostics_period', 'pause_at'}
+        'disturbance.cartesian_force', 'diagnostics_period', 'pause_at', 'friction.coulomb', 'friction.viscous',
+        'armature'}
 
 
 def test_control_period_multiple_of_physics_step():
@@ -337,14 +338,14 @@ class FakeNode:
         self.timer_restarts.append(self.now)
 
 
-@pytest.fixture
-def bridge():
-    """bridge(**parameters) -> (loop, fake node): a started loop over a polar_two_link World."""
+@pytest.fixture(params=ENGINES)
+def bridge(request):
+    """bridge(**parameters) -> (loop, fake node): a started loop over a polar_two_link World, on each engine."""
     worlds = []
 
     def make(**params):
-        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', **params))
-        worlds.append(World('polar_two_link', dt=cfg.physics_step))
+        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', engine=request.param, **params))
+        worlds.append(make_world(cfg.engine, 'polar_two_link', dt=cfg.physics_step))
         node = FakeNode(worlds[-1])
         loop = make_loop(worlds[-1], cfg, publish_state=node.publish_state, count_publishers=node.count_publishers,
                          publish_diagnostics=node.publish_diagnostics, log=node.log, clock=node.clock,

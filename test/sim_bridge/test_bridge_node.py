@@ -441,6 +441,10 @@ def test_runtime_parameter_changes_are_validated(harness):
     assert ok.successful and b.cfg.command_timeout_ns == 200 * MS
     [ok] = b.set_parameters([Parameter('disturbance.joint_torque', value=[0.0, -1.5])])
     assert ok.successful and b.world.disturbance[0].tolist() == [0.0, -1.5]
+    [ok] = b.set_parameters([Parameter('friction.coulomb', value=[0.0, 1.5])])
+    assert ok.successful and b.world.friction.coulomb.tolist() == [0.0, 1.5]
+    [bad] = b.set_parameters([Parameter('armature', value=[-0.1, 0.0])])
+    assert not bad.successful and bad.reason.startswith('armature') and not b.world.friction.armature.any()
     described = b.describe_parameter('physics_step')
     assert described.read_only and 's' in described.description
 

@@ -109,23 +109,35 @@ def test_effort_is_the_applied_torque_without_a_friction_model(world):
     np.testing.assert_allclose(effort, np.tile(POLAR.g(Q0), (50, 1)), rtol=1e-12)
 
 
-class FrictionWorld(World):
-    """A World with the friction model's hook the driver reads (tau_friction + I_a qdd of the last step, (n,));
-    here a constant stands for that torque."""
-
-    LOSS = np.array([0.25, -0.5])
-
-    def joint_friction_torque(self):
-        return self.LOSS
-
-
 def test_effort_is_the_motor_torque_less_friction_and_rotor_inertia():
-    with FrictionWorld('polar_two_link') as w:
+    """A link-side torque sensor: held at rest by stiction, the link needs g(q0) whatever the motor gives
+    within the breakaway band, so the effort reads g(q0) while the motor applies g(q0) + 0.3; slipping at
+    speed under Coulomb and viscous friction and armature it reads tau_motor - (F_c sign(qd) + b qd + I_a qdd)."""
+    friction = {'coulomb': [1.0, 1.0], 'viscous': [0.0, 0.0], 'armature': [0.0, 0.0]}
+    with World('polar_two_link', q0=Q0, friction=friction) as w:
         driver = Driver(w, sensor_model(), MS)
-        assert driver.measured is not w                          # the hook alone turns the model on
-        w.hold_torque(POLAR.g(Q0))
-        driver.step(1)
-        np.testing.assert_allclose(driver.measured.state_values()[2], POLAR.g(Q0) - FrictionWorld.LOSS, rtol=1e-12)
+        assert driver.measured is not w                          # the friction model alone turns the sensor on
+        motor = POLAR.g(Q0) + 0.3
+        w.hold_torque(motor)
+        for _ in range(20):
+            driver.step(1)
+        q, _, effort = driver.measured.state_values()
+        np.testing.assert_allclose(q, Q0, atol=1e-12)           # stuck: 0.3 N m is inside the band
+        np.testing.assert_allclose(effort, POLAR.g(Q0), atol=1e-9)
+        assert w.state()[2].tolist() == motor.tolist()          # the motor torque the World reports
+    friction = {'coulomb': [0.5, 0.0], 'viscous': [0.2, 0.0], 'armature': [0.3, 0.0]}
+    with World('polar_two_link', q0=Q0, friction=friction) as w:
+        driver = Driver(w, sensor_model(), MS)
+        motor = POLAR.g(Q0) + np.array([3.0, 0.0])
+        w.hold_torque(motor)
+        for _ in range(200):
+            q_before, qd_before, _ = w.state()
+            driver.step(1)
+        q, qd, effort = driver.measured.state_values()
+        qdd = (qd[0] - qd_before[0]) / 1e-3
+        loss = 0.5 * np.sign(qd[0]) + 0.2 * qd[0] + 0.3 * qdd
+        assert qd[0] > 0.1
+        assert effort[0] == pytest.approx(motor[0] - loss, rel=2e-3)
 
 
 def test_with_nothing_modelled_the_loop_publishes_and_steps_the_world_itself(world):

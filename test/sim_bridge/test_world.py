@@ -38,19 +38,6 @@ FREE_STARTS = {
 }
 
 
-@pytest.fixture
-def make_world():
-    """World factory whose worlds are closed after the test."""
-    worlds = []
-
-    def factory(*args, **kwargs):
-        worlds.append(World(*args, **kwargs))
-        return worlds[-1]
-    yield factory
-    for w in worlds:
-        w.close()
-
-
 def hold_with(world, tau_of_q, steps):
     """Run `steps` steps with tau = tau_of_q(q, qd); returns the (steps + 1, n) positions."""
     qs = [world.state()[0]]

@@ -3,8 +3,10 @@
 `python -m benchmarks.bench --quick` must finish and write every key of the interface with a
 finite number. The helpers the figures rest on are checked for correctness: the modern_robotics
 peer model equals Pinocchio, the real-time metrics count what they claim, stamps are read from
-serialized messages correctly.
+serialized messages correctly, the ratios and their verdicts follow their rules on given numbers, and
+B3's floor (the bare exchange at 1 kHz) runs and reports its counts.
 """
+import dataclasses
 import json
 import math
 import os
@@ -20,12 +22,17 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 KEYS = (
     'law_us_ct_2dof_median', 'law_us_ct_2dof_p99', 'law_us_ct_7dof_median', 'law_us_hybrid_7dof_median',
     'law_us_impedance_7dof_median',
+    *(f'law_vs_rnea_{case}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')),
     'mr_ct_7dof_us_median', 'pin_rnea_us_median', 'speedup_vs_modern_robotics',
     'lockstep_steps_per_s_polar', 'lockstep_steps_per_s_iiwa', 'pingpong_roundtrips_per_s',
     'lockstep_vs_pingpong_ratio',
+    'realtime_missed_vs_floor',
     'realtime_1khz_deadline_hit_ratio', 'realtime_latency_p50_ms', 'realtime_latency_p99_ms', 'realtime_rtf',
+    *(f'realtime_floor_{metric}' for metric in ('missed_periods', 'periods', '1khz_deadline_hit_ratio',
+                                                'latency_p99_ms', 'rtf')),
     *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance')
-      for metric in ('1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
+      for metric in ('missed_vs_floor', 'missed_periods', 'periods', 'floor_missed_periods',
+                     '1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
     'sim_steps_per_s_iiwa',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
     'wrench_decode_us_cdr_median', 'wrench_decode_us_rclpy_median',
@@ -50,6 +57,9 @@ def test_quick_bench_writes_every_key_as_a_finite_number(tmp_path):
         machine = json.load(f)
     assert machine['cores'] >= 1 and machine['cpu_model']
     assert 'law_us_ct_7dof_median' in proc.stdout           # the table is printed
+    assert 'Targets met: ' in proc.stdout                   # with its verdict
+    with open(tmp_path / 'results.md', encoding='utf-8') as f:
+        assert 'Targets met: ' in f.read()
 
 
 def test_modern_robotics_chain_has_pinocchio_dynamics():
@@ -90,6 +100,7 @@ def test_realtime_metrics_count_hits_latency_and_rtf():
     commands = _rows([0, 1, 3], [0.5, 2.5, 3.2])
     m = realtime_metrics(states, commands)
     assert m['hit_ratio'] == pytest.approx(2 / 4)                  # periods 0..3 have a next state
+    assert (m['periods'], m['missed']) == (4, 2)
     assert m['latency_p50_ms'] == pytest.approx(0.5)
     assert m['rtf'] == pytest.approx(1.0)
 
@@ -125,4 +136,70 @@ def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
     assert not any(a.startswith('law:=') for a in controller)
     for run in bench_ros.REALTIME_RUNS:
         assert bench.TARGETS[f'realtime_rtf_{run}'] == bench.TARGETS['realtime_rtf']
-    assert bench.verdict('law_us_impedance_7dof_median', 61.0).startswith('MISSED')
+    assert bench.TARGETS[f'realtime_missed_vs_floor_{run}'] == bench.TARGETS['realtime_missed_vs_floor']
+
+
+def test_law_costs_are_held_to_their_ratio_to_rnea():
+    from benchmarks import bench
+    assert bench.vs_rnea(6.0, 1.2) == pytest.approx(5.0)
+    assert bench.verdict('law_vs_rnea_ct_7dof', 8.0).startswith('met')
+    assert bench.verdict('law_vs_rnea_ct_7dof', 8.1).startswith('MISSED')
+    assert bench.verdict('law_vs_rnea_hybrid_7dof', 30.0).startswith('met')
+    assert bench.verdict('law_vs_rnea_impedance_7dof', 30.5).startswith('MISSED')
+    assert bench.verdict('law_us_hybrid_7dof_median', 500.0) == ''        # microseconds: printed, no target
+    results = {'law_us_hybrid_7dof_median': 36.0, 'pin_rnea_us_median': 1.2, 'law_vs_rnea_hybrid_7dof': 30.0}
+    assert bench.verdict('law_vs_rnea_hybrid_7dof', 30.0, results) == 'met (<= 30): 36 us / rnea 1.2 us'
+
+
+def test_missed_periods_against_the_floor():
+    from benchmarks.bench_ros import missed_vs_floor
+    assert missed_vs_floor(15, 1000, 40, 4000) == pytest.approx(1.5)      # floor: 10 per 1000 periods
+    assert missed_vs_floor(10, 2000, 10, 1000) == pytest.approx(0.5)      # floor: 20 per 2000 periods
+    assert missed_vs_floor(1, 1000, 0, 4000) == pytest.approx(1.0)        # a floor of 0 allows one
+    assert missed_vs_floor(2, 1000, 1, 4000) == pytest.approx(2.0)        # and so does a floor under one
+    assert missed_vs_floor(0, 1000, 0, 4000) == 0.0
+
+
+def _metrics(periods, missed, p99=0.5, rtf=1.0):
+    return {'periods': periods, 'missed': missed, 'hit_ratio': 1 - missed / periods, 'latency_p50_ms': 0.2,
+            'latency_p99_ms': p99, 'rtf': rtf}
+
+
+def test_realtime_verdict_holds_each_run_to_the_pooled_floor():
+    from benchmarks import bench
+    from benchmarks.bench_ros import pooled, realtime_results
+    floors = {'polar': _metrics(1000, 4), 'iiwa': _metrics(500, 16, p99=0.7, rtf=0.995),
+              'iiwa_hybrid': _metrics(500, 0)}
+    floor = pooled(list(floors.values()))
+    assert (floor['periods'], floor['missed'], floor['latency_p99_ms'], floor['rtf']) == (2000, 20, 0.7, 0.995)
+    per = {'polar': _metrics(1000, 15), 'iiwa': _metrics(2000, 31, p99=0.9), 'iiwa_hybrid': _metrics(1000, 5,
+                                                                                                        rtf=0.98)}
+    out = realtime_results(per, floors)
+    assert out['realtime_missed_vs_floor_polar'] == pytest.approx(1.5)     # 15 against 10 in 1000 periods
+    assert out['realtime_missed_vs_floor_iiwa'] == pytest.approx(1.55)     # 31 against 20 in 2000 periods
+    assert out['realtime_missed_vs_floor'] == pytest.approx(1.55)          # the worst run
+    assert (out['realtime_floor_missed_periods'], out['realtime_floor_periods']) == (20, 2000)
+    assert out['realtime_floor_missed_periods_iiwa'] == 16                # the floor run before that run
+    assert out['realtime_latency_p99_ms'] == 0.9 and out['realtime_rtf'] == 0.98
+    missed = [k for k, v in out.items() if k in bench.TARGETS and not bench.met(k, v)]
+    assert sorted(missed) == ['realtime_missed_vs_floor', 'realtime_missed_vs_floor_iiwa', 'realtime_rtf',
+                              'realtime_rtf_iiwa_hybrid']
+    text = bench.verdict('realtime_missed_vs_floor_iiwa', out['realtime_missed_vs_floor_iiwa'], out)
+    assert text == 'MISSED (<= 1.5): 31 of 2000 periods missed, floor 20 of 2000'
+    assert bench.summary(out)[-1].startswith('Targets MISSED: realtime_missed_vs_floor = 1.55 (<= 1.5), ')
+    busy = realtime_results(per, {**floors, 'iiwa_hybrid': _metrics(500, 60)})      # floor: 80 of 2000 missed
+    assert bench.summary(busy)[-1].startswith('Caution: the floor of B3 (no physics, no law) answered only 96.0 %')
+
+
+def test_floor_exchange_runs_and_reports_its_counts(tmp_path):
+    """The bare exchange of B3 (tick paced at 1 kHz, echo answering) for a few hundred periods on this test's
+    domain: every period counted as answered in time or missed, latencies and real-time factor measured."""
+    from benchmarks import bench, bench_ros
+    plan = dataclasses.replace(bench.QUICK, dds_warmup_s=0.1)
+    env = bench_ros.ros_env(int(os.environ['ROS_DOMAIN_ID']))
+    with bench_ros.Session(env, str(tmp_path)) as session:
+        m = session.run('floor', 'realtime', bench_ros.realtime_run(plan, periods=300), label='floor')
+    assert m['periods'] >= 150                 # the observer is best effort: it may lose a sample now and then
+    assert 0 <= m['missed'] <= m['periods'] and m['hit_ratio'] == pytest.approx(1 - m['missed'] / m['periods'])
+    assert 0 < m['latency_p50_ms'] <= m['latency_p99_ms'] and m['rtf'] > 0
+    assert os.path.exists(tmp_path / 'floor_realtime' / 'tick.log')

@@ -1,0 +1,198 @@
+"""Joint friction and rotor inertia of the simulated robot: the World's joint-level physics, its parameter
+rows and the Coulomb solver. No rclpy, no pybullet.
+
+Per controlled joint i (SI; revolute: N m, rad/s, kg m^2; prismatic: N, m/s, kg):
+
+    (M(q) + diag(I_a)) qdd + h(q, qd) = tau + tau_env - b qd + f,     h = C(q, qd) qd + g(q)
+
+    b    = friction.viscous, N m s/rad or N s/m: the viscous torque -b_i qd_i
+    F_c  = friction.coulomb, N m or N: Coulomb friction f_i = -F_c,i sign(qd_i) while the joint slips;
+           stiction: a joint at rest stays at rest while the torque that holds it is within F_c,i
+           (the breakaway value)
+    I_a  = armature, kg m^2 or kg: the rotor inertia reflected through the gear (n^2 I_rotor), added
+           to the diagonal of M
+
+tau_env is what the World adds (disturbance, the mass-spring's spring, J^T F of a Cartesian
+disturbance). Joints not controlled are held still, so M, h are the controlled joints' block.
+
+Discrete time, the World's semi-implicit Euler step dt (the Coulomb torque is implicit, as Bullet's
+velocity motors make it; those motors' iterative solver leaves coupled joints creeping, e.g. 4.9e-4 rad
+in 1 s on the iiwa held at 0.9 F_c with default settings, hence the exact solve here):
+
+    qd+ = qd + dt A^-1 (r + f),   A = M + diag(I_a),   r = tau + tau_env - b qd - h (+ tau_c, below)
+    f_i = -F_c,i sign(qd+_i) where qd+_i != 0;  |f_i| <= F_c,i where qd+_i = 0
+
+a box-constrained linear complementarity problem, solved exactly by `coulomb_torque`.
+
+How PyBullet is made to simulate it (sim_bridge.joint_physics.JointPhysics):
+- viscous: PyBullet's joint damping (changeDynamics jointDamping = b adds -b qd at every step, read
+  at the step's start: measured bit-identical to an applied torque -b qd). No call per step.
+- Coulomb or armature non-zero: every step reads q, qd, M (calculateMassMatrix), h
+  (calculateInverseDynamics) and, under a Cartesian disturbance F, the tip Jacobian; solves the
+  equations above for f and qdd = (qd+ - qd) / dt; and sends PyBullet the joint torque
+      tau_sent = tau + tau_env_joint + f - I_a qdd,
+  for which PyBullet's own M qdd_b = tau_sent - b qd - h + J^T F gives qdd_b = qdd.
+  All zero: nothing is read, computed or sent beyond the World's torque.
+Constraints: the surface contact, the URDF joint limits and the held joints are solved by PyBullet
+after this torque, through M. Their joint torque tau_c of the last step (PyBullet's M (qd - qd+) / dt
+added to the tau_c assumed then) is assumed to persist: r includes it, so the friction and the
+armature's torque follow the acceleration the constraints allow (exact while tau_c is steady, e.g.
+pressing on the surface; one step late when it changes, e.g. at impact). While the brakes hold, the
+brakes alone act.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_control import validation
+from robot_control.param_table import Row, gt_eq, size
+from robot_control.validation import ArgumentError
+
+#: the World's `friction` keys and the parameters that carry them
+KEYS = ('coulomb', 'viscous', 'armature')
+PARAMETERS = {'coulomb': 'friction.coulomb', 'viscous': 'friction.viscous', 'armature': 'armature'}
+#: relative slack of the breakaway test |f_i| <= F_c,i (round-off of the linear solve)
+BREAKAWAY_RTOL = 1e-12
+
+
+@dataclass(frozen=True, eq=False)
+class JointFriction:
+    """coulomb (n,) N m or N, viscous (n,) N m s/rad or N s/m, armature (n,) kg m^2 or kg: non-negative,
+    per controlled joint. Immutable; `exact`: Coulomb or armature non-zero (the per-step path)."""
+
+    coulomb: np.ndarray
+    viscous: np.ndarray
+    armature: np.ndarray
+
+    @classmethod
+    def of(cls, n, config=None):
+        """From None (all zero), a JointFriction, or a mapping with some of KEYS; ArgumentError naming
+        friction.coulomb, friction.viscous or armature."""
+        if isinstance(config, JointFriction):
+            config = {k: getattr(config, k) for k in KEYS}
+        if config is None:
+            config = {}
+        if not hasattr(config, 'keys'):
+            raise ArgumentError('friction', f'expected None or a mapping with keys {list(KEYS)}, got {config!r}')
+        unknown = sorted(set(config) - set(KEYS))
+        if unknown:
+            raise ArgumentError('friction', f'unknown keys {unknown}; expected some of {list(KEYS)}')
+        values = {}
+        for key in KEYS:
+            v = config.get(key)
+            v = np.zeros(n) if v is None or len(v) == 0 else validation.vector(PARAMETERS[key], v, n).copy()
+            if np.any(v < 0.0):
+                raise ArgumentError(PARAMETERS[key], f'expected non-negative values, got {v.tolist()}')
+            v.setflags(write=False)
+            values[key] = v
+        return cls(**values)
+
+    @property
+    def active(self):
+        """True when any friction or armature is set (a link-side torque sensor then reads less than the motor)."""
+        return bool(self.exact or self.viscous.any())
+
+    @property
+    def exact(self):
+        """True when the per-step path runs (Coulomb friction or armature on some joint)."""
+        return bool(self.coulomb.any() or self.armature.any())
+
+    def __eq__(self, other):
+        return isinstance(other, JointFriction) and all(np.array_equal(getattr(self, k), getattr(other, k))
+                                                        for k in KEYS)
+
+    __hash__ = None
+
+
+def rows(n):
+    """The bridge's rows of the joint physics (sim_bridge.bridge_params gathers them): n joints."""
+    per_joint = size('joints', 'joint', empty_ok=True)
+    zeros = (0.0,) * n
+    return [
+        Row('friction.coulomb', 'double_array', zeros,
+            'Coulomb friction of each joint of the simulated robot, N m or N, in joints order: -F_c sign(qd) while '
+            'it slips; a joint at rest stays at rest while the torque holding it is below F_c (stiction).',
+            [per_joint, gt_eq(0)]),
+        Row('friction.viscous', 'double_array', zeros,
+            'Viscous friction of each joint of the simulated robot, N m s/rad or N s/m: the torque -b qd.',
+            [per_joint, gt_eq(0)]),
+        Row('armature', 'double_array', zeros,
+            'Rotor inertia of each joint of the simulated robot reflected through its gear, kg m^2 or kg: '
+            'added to the diagonal of M(q).', [per_joint, gt_eq(0)]),
+    ]
+
+
+def from_values(values, n):
+    """The JointFriction of checked parameter values (rows' rules hold)."""
+    return JointFriction.of(n, {key: values[name] for key, name in PARAMETERS.items()})
+
+
+def coulomb_torque(A, b, dt, fc):
+    """(f (n,) N m or N, qd+ (n,)): the implicit Coulomb torque of one step and the velocities after it.
+
+    A (n, n) the inertia M + diag(I_a), kg m^2 or kg; b = A qd / dt + r (n,), N m or N (r: every torque
+    but Coulomb friction, less h); dt s; fc (n,) >= 0 the breakaway torques. Solves
+        A (qd+ - qd) / dt = r + f,   f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
+    (f_i = 0 where fc_i = 0) by active sets. For stuck joints S (qd+_S = 0) and slipping joints N
+    (f_N = -fc_N s_N, s_N their direction):
+        qd+_N = dt A_NN^-1 (b + f)_N,   f_S = A_SN qd+_N / dt - b_S.
+    First guess, from the velocities without friction qd_free = dt A^-1 b: a joint is stuck when its own
+    friction alone could stop it, A_ii |qd_free,i| / dt <= fc_i, else it slips along qd_free,i. Then a
+    stuck joint needing more than fc_i breaks away (slips against its holding torque) and a slipping joint
+    whose velocity would reverse sticks: all such joints at once, and the first of them alone (least
+    index, as Murty's pivoting) once a guess repeats; until consistent (about one pass on average on the
+    iiwa), `_coordinate_descent` if that does not end."""
+    has = fc > 0.0
+    free = np.linalg.solve(A, b)                       # qd_free / dt
+    if not has.any():
+        return np.zeros(len(fc)), dt * free
+    sign = np.sign(free)
+    stuck = has & (np.abs(free) * np.diag(A) <= fc)
+    seen, least_index = set(), False
+    for _ in range(4 * len(fc) + 4):
+        f, v, wrong = _given(A, b, dt, fc, stuck, sign)
+        if not wrong.any():
+            return f, v
+        key = (stuck.tobytes(), sign.tobytes())
+        least_index = least_index or key in seen
+        seen.add(key)
+        if least_index:
+            wrong[np.argmax(wrong) + 1:] = False
+        sign = np.where(stuck & wrong, -np.sign(f), sign)
+        stuck = stuck ^ wrong
+    f = _coordinate_descent(dt * np.linalg.inv(A), dt * free, fc)
+    stuck = has & (np.abs(f) < fc * (1.0 - 1e-9))
+    f_exact, v, wrong = _given(A, b, dt, fc, stuck, -np.sign(f))     # its sets, solved exactly
+    return (f_exact, v) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f))
+
+
+def _given(A, b, dt, fc, stuck, sign):
+    """(f, qd+, wrong) of coulomb_torque for the stuck joints `stuck` and the slipping joints' directions
+    `sign`; wrong (n,) bool marks the joints whose assumption fails (a stuck joint needing more than
+    fc_i, a slipping one whose velocity would reverse)."""
+    f = np.where(stuck, 0.0, -fc * sign)
+    v = np.zeros(len(fc))
+    slip = np.flatnonzero(~stuck)
+    if len(slip) == len(fc):
+        v = dt * np.linalg.solve(A, b + f)
+    elif len(slip):
+        v[slip] = dt * np.linalg.solve(A[slip[:, None], slip], (b + f)[slip])
+    if len(slip) < len(fc):
+        f = np.where(stuck, A @ v / dt - b, f)
+    breaks = stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
+    return f, v, breaks | ((fc > 0.0) & ~stuck & (v * sign < 0.0))
+
+
+def _coordinate_descent(W, v_free, fc, sweeps=1000, tol=1e-15):
+    """f: coulomb_torque's fallback, projected Gauss-Seidel on the same problem written with
+    W = dt A^-1 and v_free = dt A^-1 b (the minimum of f^T W f / 2 + f^T v_free over |f_i| <= fc_i), until no
+    f_i moves by more than tol fc_i."""
+    f = np.zeros(len(fc))
+    for _ in range(sweeps):
+        moved = 0.0
+        for i in np.flatnonzero(fc > 0.0):
+            new = min(max(f[i] - (v_free[i] + W[i] @ f) / W[i, i], -fc[i]), fc[i])
+            moved, f[i] = max(moved, abs(new - f[i]) / fc[i]), new
+        if moved <= tol:
+            break
+    return f

@@ -1,0 +1,76 @@
+"""The joint friction and armature of sim_bridge.joint_friction applied to a PyBullet body, step by step
+(the equations and how PyBullet is made to follow them: that module's docstring). No rclpy."""
+import numpy as np
+import pybullet as p
+
+from sim_bridge import physics_check
+from sim_bridge.joint_friction import coulomb_torque
+
+
+class JointPhysics:
+    """The joint physics of one built PyBullet body: `joints` the controlled joints' PyBullet indices,
+    `tip` the tip link index or None, dt the step, s. `set(friction)` puts a JointFriction in force; `torque` is the
+    World's per-step call."""
+
+    def __init__(self, client, body, joints, tip, dt, friction):
+        self._client, self._body, self._joints, self._tip, self.dt = client, body, list(joints), tip, dt
+        self._movable = list(physics_check.movable_joints(client, body).values())
+        dof = np.array([self._movable.index(j) for j in joints])
+        #: the controlled joints' block of the full mass matrix and vectors (None: every movable joint, in order)
+        self._dof = None if dof.tolist() == list(range(len(self._movable))) else dof
+        self._block = None if self._dof is None else (dof[:, None], dof)
+        self._zeros = [0.0] * len(self._movable)
+        self.set(friction)
+
+    def set(self, friction):
+        """Put `friction` (a JointFriction for these joints) in force from the next step."""
+        self.friction = friction
+        self.exact = friction.exact
+        self._armature = np.diag(friction.armature)
+        self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
+        self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
+        for j, b in zip(self._joints, friction.viscous.tolist()):
+            p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
+
+    def torque(self, forces, cartesian_force=None, braked=False):
+        """The joint torques (list of n floats) to send PyBullet for the step about to run, given `forces`
+        (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
+        (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`."""
+        if braked:
+            self._last = self.loss = None
+            return forces
+        c, body, fr = self._client, self._body, self.friction
+        states = p.getJointStates(body, self._movable, physicsClientId=c)
+        q_all = [s[0] for s in states]
+        qd_all = [s[1] for s in states]
+        mass = np.array(p.calculateMassMatrix(body, q_all, physicsClientId=c))
+        h = np.array(p.calculateInverseDynamics(body, q_all, qd_all, self._zeros, physicsClientId=c))
+        qd = np.array(qd_all)
+        if self._dof is not None:
+            mass, h, qd = mass[self._block], h[self._dof], qd[self._dof]
+        tau = np.array(forces)
+        r = tau - fr.viscous * qd - h
+        if cartesian_force is not None:
+            r += self._jacobian(q_all, qd_all).T @ cartesian_force
+        constraint = 0.0 if self._last is None else self._constraint(qd)
+        r += constraint
+        inertia = mass + self._armature
+        f, v = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb)
+        self._last = (mass, v, constraint)
+        qdd = (v - qd) / self.dt
+        self.loss = fr.viscous * qd - f + fr.armature * qdd
+        return (tau + f - fr.armature * qdd).tolist()
+
+    def _constraint(self, qd):
+        """tau_c (n,) N m or N: the joint torque of the constraints PyBullet solved in the last step (surface
+        contact, joint limits, held joints). PyBullet's M (qd - qd+_predicted) / dt is what they added to
+        the tau_c assumed then: M qdd_b = tau_sent - h + tau_c and M qdd = tau_sent - h + tau_c,assumed."""
+        mass, predicted, assumed = self._last
+        return assumed + mass @ (qd - predicted) / self.dt
+
+    def _jacobian(self, q_all, qd_all):
+        """The tip frame origin's linear Jacobian (3, n), m/rad or 1, world axes: where the World applies
+        the Cartesian disturbance (calculateJacobian's point is in the link frame, measured)."""
+        linear, _ = p.calculateJacobian(self._body, self._tip, [0.0, 0.0, 0.0], q_all, qd_all, self._zeros,
+                                        physicsClientId=self._client)
+        return np.array(linear) if self._dof is None else np.array(linear)[:, self._dof]

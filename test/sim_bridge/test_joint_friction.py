@@ -1,0 +1,276 @@
+"""Joint friction and armature of the simulated robot (sim_bridge.joint_friction through the World),
+measured against the equations of its docstring.
+
+Figures asserted: a joint held by less than its Coulomb torque moves < 1e-9 in 1 s (single link; the iiwa,
+every joint at once; every scenario in 0.5 s); above it qdd = (tau - g - F_c sign) / (M_ii + I_a) within 1e-9
+relative (force_1dof, single link); a free joint's velocity decays as (1 - b dt / m)^k (exp(-b t / m)
+within 1e-3) and PyBullet's joint damping is bit-identical to an applied -b qd; the acceleration under
+armature is (M + I_a)^-1 (tau - g) within 1e-9 relative on the iiwa, 1e-4 on every scenario (the Panda's
+held fingers: 8e-6); the Coulomb solver satisfies its complementarity conditions on random coupled
+systems; pressed on a surface, the contact balances the push within the Coulomb band (1e-3 N without);
+the brakes hold whatever the friction.
+"""
+import numpy as np
+import pybullet as p
+import pytest
+
+from robot_control import scenarios
+from robot_control.validation import ArgumentError
+from sim_bridge import bridge_params, physics_check
+from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_torque
+
+DT = 0.001
+IIWA_COULOMB = (1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5)
+
+
+def _state(world):
+    """(every movable joint's position, in PyBullet's degree-of-freedom order; the controlled joints' places in it)."""
+    movable = physics_check.movable_joints(world.client, world.body)
+    q = [s[0] for s in p.getJointStates(world.body, list(movable.values()), physicsClientId=world.client)]
+    return q, [list(movable).index(name) for name in world.joint_names]
+
+
+def g_now(world):
+    """PyBullet's g of the controlled joints at the current state (other movable joints held where they are)."""
+    q, dof = _state(world)
+    z = [0.0] * len(q)
+    return np.array(p.calculateInverseDynamics(world.body, q, z, z, physicsClientId=world.client))[dof]
+
+
+def M_now(world):
+    """The controlled joints' block of PyBullet's M at the current state."""
+    q, dof = _state(world)
+    return np.array(p.calculateMassMatrix(world.body, q, physicsClientId=world.client))[np.ix_(dof, dof)]
+
+
+def acceleration(world, tau, steps=1):
+    """Mean acceleration over `steps` steps from the current state under torque tau, rad/s^2 or m/s^2."""
+    world.set_torque(tau)
+    qd0 = world.state()[1]
+    world.step(steps)
+    return (world.state()[1] - qd0) / (steps * world.dt)
+
+
+# -- Coulomb friction and stiction -------------------------------------------------------------------------
+@pytest.mark.parametrize('below', [0.9, -0.9, 0.0])
+def test_a_joint_held_by_less_than_its_coulomb_torque_stays_at_rest(make_world, below):
+    fc = 3.0
+    world = make_world('single_link', q0=(0.4,), friction={'coulomb': [fc]})
+    q0 = world.state()[0]
+    world.set_torque(g_now(world) + below * fc)
+    world.step(1000)
+    assert np.abs(world.state()[0] - q0).max() < 1e-9
+
+
+def test_every_iiwa_joint_sticks_at_once_below_its_coulomb_torque(make_world):
+    """Coupled joints: the holding torques of all seven are solved together (drift < 1e-9 in 1 s); without
+    friction the same torque moves the arm."""
+    fc = np.array(IIWA_COULOMB)
+    world = make_world('iiwa', surface=False, friction={'coulomb': fc})
+    q0 = world.state()[0]
+    tau = g_now(world) + 0.9 * fc * np.array([1, -1, 1, -1, 1, -1, 1])
+    world.set_torque(tau)
+    world.step(1000)
+    assert np.abs(world.state()[0] - q0).max() < 1e-9
+    world.set_friction(None)
+    world.step(100)
+    assert np.abs(world.state()[0] - q0).max() > 1e-4
+
+
+@pytest.mark.parametrize('armature', [0.0, 0.5])
+def test_above_the_breakaway_the_acceleration_is_net_force_over_mass(make_world, armature):
+    """force_1dof (m = 1 kg, prismatic, no gravity along x): qdd = (u - F_c sign(u)) / (m + I_a), both ways."""
+    fc, m = 2.0, 1.0
+    world = make_world('force_1dof', surface=False, q0=(0.0,), friction={'coulomb': [fc], 'armature': [armature]})
+    for u in (5.0, -5.0):
+        world.reset()
+        world.step()                    # at rest, stuck: the first step breaks away
+        a = acceleration(world, [u], steps=10)
+        expected = (u - fc * np.sign(u)) / (m + armature)
+        assert a[0] == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_sliding_single_link_feels_coulomb_against_its_motion(make_world):
+    """qdd = (tau - g - F_c sign(qd)) / (M + I_a) at each step of a swing (1e-9 relative; M, g at the step's start)."""
+    fc, ia = 0.5, 0.05
+    world = make_world('single_link', q0=(0.3,), friction={'coulomb': [fc], 'armature': [ia]})
+    world.set_torque([0.0])
+    world.step(50)                      # swinging down
+    for _ in range(5):
+        qd = world.state()[1]
+        assert abs(qd[0]) > 0.1
+        expected = (0.0 - g_now(world)[0] - fc * np.sign(qd[0])) / (M_now(world)[0, 0] + ia)
+        assert acceleration(world, [0.0])[0] == pytest.approx(expected, rel=1e-9)
+
+
+def test_coulomb_torque_satisfies_complementarity_on_coupled_systems():
+    """Random SPD inertias, velocities and breakaway torques: A (qd+ - qd) / dt = r + f; |f| <= F_c;
+    a joint that moves (qd+ != 0, not even by round-off) feels -F_c sign(qd+)."""
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        n = int(rng.integers(1, 8))
+        a = rng.normal(size=(n, n))
+        A = a @ a.T + 0.05 * np.eye(n)
+        qd, r = rng.normal(size=n) * 0.01, rng.normal(size=n)
+        fc = rng.uniform(0.0, 2.0, n) * (rng.uniform(size=n) > 0.2)
+        f, v = coulomb_torque(A, A @ qd / DT + r, DT, fc)
+        stuck = (v == 0.0) & (fc > 0)
+        np.testing.assert_allclose(A @ (v - qd) / DT, r + f, atol=1e-9)
+        assert np.all(np.abs(f) <= fc * (1 + 1e-9) + 1e-15)
+        slip = ~stuck & (fc > 0)
+        np.testing.assert_allclose(f[slip], -fc[slip] * np.sign(v[slip]), rtol=1e-9)
+        assert np.all(f[fc == 0] == 0)
+
+
+def test_the_fallback_solver_finds_the_same_friction():
+    """coulomb_torque's fallback (projected Gauss-Seidel, for active sets that would not settle) agrees with
+    the active sets on random coupled systems (1e-9 of F_c)."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        n = int(rng.integers(1, 8))
+        a = rng.normal(size=(n, n))
+        A = a @ a.T + 0.5 * np.eye(n)
+        b = A @ rng.normal(size=n) * 0.01 / DT + rng.normal(size=n)
+        fc = rng.uniform(0.1, 2.0, n)
+        f, _ = coulomb_torque(A, b, DT, fc)
+        np.testing.assert_allclose(_coordinate_descent(DT * np.linalg.inv(A), DT * np.linalg.solve(A, b), fc), f,
+                                   atol=1e-9 * fc.max())
+
+
+# -- viscous friction --------------------------------------------------------------------------------------
+def test_viscous_friction_decays_a_free_velocity_exponentially(make_world):
+    """force_1dof, m = 1 kg, b = 0.5 N s/m: qd_k = qd_0 (1 - b dt / m)^k (semi-implicit Euler of
+    m qdd = -b qd), exp(-b t / m) within 1e-3 over 2 s."""
+    b, m = 0.5, 1.0
+    world = make_world('force_1dof', surface=False, q0=(0.0,), friction={'viscous': [b]})
+    world.set_torque([1.0])
+    world.step(100)
+    world.set_torque([0.0])
+    v0 = world.state()[1][0]
+    world.step(2000)
+    v = world.state()[1][0]
+    assert v / v0 == pytest.approx((1 - b * DT / m) ** 2000, rel=1e-12)
+    assert v / v0 == pytest.approx(np.exp(-b * 2.0 / m), rel=1e-3)
+
+
+def test_viscous_friction_is_the_torque_minus_b_qd(make_world):
+    """PyBullet's joint damping equals an applied -b qd step by step (bit-identical), on the iiwa."""
+    b = np.full(7, 0.5)
+    damped = make_world('iiwa', surface=False, friction={'viscous': b})
+    applied = make_world('iiwa', surface=False)
+    for _ in range(300):
+        applied.set_torque(-b * applied.state()[1])
+        damped.step()
+        applied.step()
+    assert np.array_equal(damped.state()[0], applied.state()[0])
+    assert np.abs(damped.state()[1]).max() > 0.1
+
+
+# -- armature ----------------------------------------------------------------------------------------------
+def test_armature_adds_to_the_diagonal_of_the_mass_matrix(make_world):
+    """iiwa at rest, armature 0.1 kg m^2 per joint: qdd = (M + I_a)^-1 (tau - g) (1e-9 relative), unlike
+    M^-1 (tau - g)."""
+    ia = np.full(7, 0.1)
+    world = make_world('iiwa', surface=False, friction={'armature': ia})
+    q0 = world.state()[0]
+    tau = g_now(world) + np.array([2.0, -1.0, 1.5, 1.0, -0.5, 0.3, 0.2])
+    expected = np.linalg.solve(M_now(world) + np.diag(ia), tau - g_now(world))
+    without = np.linalg.solve(M_now(world), tau - g_now(world))
+    a = acceleration(world, tau)
+    np.testing.assert_allclose(a, expected, rtol=1e-9, atol=1e-9)
+    assert np.abs(a - without).max() > 0.1 * np.abs(without).max()
+
+
+def test_armature_holds_under_a_cartesian_disturbance(make_world):
+    """iiwa held by g(q), armature 0.1: a force at the tip accelerates the arm as (M + I_a)^-1 J^T F
+    (within 1e-3 rad/s^2: PyBullet's own tip force differs from J^T F by 5e-4 rad/s^2 on joint 7 without
+    armature too)."""
+    ia = np.full(7, 0.1)
+    force = np.array([0.0, 20.0, -10.0])
+    world = make_world('iiwa', surface=False, friction={'armature': ia}, disturbance={'cartesian_force': force})
+    q0, z = world.state()[0], [0.0] * 7
+    J = np.array(p.calculateJacobian(world.body, 6, [0.0] * 3, list(q0), z, z, physicsClientId=world.client)[0])
+    expected = np.linalg.solve(M_now(world) + np.diag(ia), J.T @ force)
+    without = np.linalg.solve(M_now(world), J.T @ force)
+    a = acceleration(world, g_now(world))
+    np.testing.assert_allclose(a, expected, rtol=1e-4, atol=1e-3)
+    assert np.abs(a - without).max() > 0.1 * np.abs(without).max()
+
+
+@pytest.mark.parametrize('name', tuple(scenarios.SCENARIOS))
+def test_every_scenario_sticks_and_carries_its_armature(make_world, name):
+    """Every robot (closed forms through their generated URDFs, iiwa, Panda, UR5): held at 0.8 F_c (alternating
+    signs) it moves < 1e-9 in 0.5 s; with armature 0.2 its acceleration is (M + I_a)^-1 (tau - g) within 1e-4
+    relative (the Panda's fingers, held by position motors, couple in at 8e-6; the others agree to 2e-14)."""
+    n = len(scenarios.get(name).joints)
+    stuck = make_world(name, surface=False, friction={'coulomb': np.full(n, 2.0)})
+    q0, g = stuck.state()[0], g_now(stuck)
+    stuck.set_torque(g + 1.6 * np.where(np.arange(n) % 2, 1.0, -1.0))
+    stuck.step(500)
+    assert np.abs(stuck.state()[0] - q0).max() < 1e-9
+    ia = np.full(n, 0.2)
+    world = make_world(name, surface=False, friction={'armature': ia})
+    expected = np.linalg.solve(M_now(world) + np.diag(ia), np.ones(n))
+    np.testing.assert_allclose(acceleration(world, g + 1.0), expected, rtol=1e-4, atol=1e-4 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize('friction,band', [({'viscous': [5.0], 'armature': [0.5]}, 1e-3),
+                                           ({'coulomb': [0.5], 'viscous': [5.0], 'armature': [0.5]}, 0.5)])
+def test_pressed_on_the_surface_the_contact_balances_the_push(make_world, friction, band):
+    """force_1dof pushing with u = 20 N on its wall (k_e = 1000 N/m): at rest after 6 s, the contact force is
+    u within the Coulomb band (1e-3 N without Coulomb friction). The armature's torque -I_a qdd follows the
+    acceleration the contact allows (PyBullet's constraint torque of the last step, carried into the next)."""
+    world = make_world('force_1dof', friction=friction)
+    world.set_torque([20.0])
+    world.step(6000)
+    assert abs(world.state()[1][0]) < 1e-5
+    assert abs(world.contact_wrench()[0][0] - 20.0) <= band
+
+
+def test_the_brakes_hold_whatever_the_friction_and_armature(make_world):
+    world = make_world('iiwa', surface=False, friction={'coulomb': IIWA_COULOMB, 'armature': np.full(7, 0.1)})
+    q0 = world.state()[0]
+    world.brake(True)
+    world.set_torque(np.full(7, 50.0))
+    world.step(500)
+    assert np.abs(world.state()[0] - q0).max() < 1e-3
+    world.brake(False)
+    world.step(50)
+    assert np.abs(world.state()[0] - q0).max() > 1e-2
+
+
+# -- the World's interface -----------------------------------------------------------------------------------
+def test_friction_survives_reset_and_changes_at_run_time(make_world):
+    world = make_world('force_1dof', surface=False, q0=(0.0,), friction={'coulomb': [2.0]})
+    world.set_torque([1.5])
+    world.step(100)
+    world.reset()
+    world.step(100)
+    assert world.state()[0][0] == 0.0
+    world.set_torque([1.5])
+    world.step(100)
+    assert world.state()[0][0] == 0.0
+    world.set_friction({'coulomb': [1.0]})
+    assert world.friction.coulomb.tolist() == [1.0] and world.friction.armature.tolist() == [0.0]
+    world.step(100)
+    assert world.state()[0][0] > 0.0
+
+
+@pytest.mark.parametrize('friction,name', [({'coulomb': [-1.0]}, 'friction.coulomb'),
+                                           ({'viscous': [1.0, 2.0]}, 'friction.viscous'),
+                                           ({'armature': [np.nan]}, 'armature'),
+                                           ({'stiction': [1.0]}, 'friction'), ([1.0], 'friction')])
+def test_bad_friction_names_what_is_wrong(friction, name):
+    with pytest.raises(ArgumentError) as info:
+        JointFriction.of(1, friction)
+    assert info.value.name == name
+
+
+def test_the_bridge_shows_zero_friction_by_default_and_passes_what_is_set():
+    values = bridge_params.defaults('iiwa')
+    assert all(values[k] == (0.0,) * 7 for k in ('friction.coulomb', 'friction.viscous', 'armature'))
+    cfg = bridge_params.validate(bridge_params.defaults('iiwa', **{'friction.coulomb': IIWA_COULOMB}))
+    assert cfg.friction == JointFriction.of(7, {'coulomb': IIWA_COULOMB})
+    with pytest.raises(ArgumentError) as info:
+        bridge_params.validate(bridge_params.defaults('polar_two_link', **{'friction.viscous': [1.0]}))
+    assert info.value.name == 'friction.viscous'
