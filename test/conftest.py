@@ -13,7 +13,8 @@ settings.load_profile('robot_control')
 # Before anything imports rclpy: never let discovery leave this machine.
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 # 1..70: clear of the ids that tests claim or fix for their own processes (end-to-end runs 71-80,
-# robustness 81-92), so another suite running on this machine at the same time cannot talk to them
+# robustness 81-92, two hosts 93-100, your own arm 98-99), so another suite running on this machine at the
+# same time cannot talk to them
 os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 70))
 os.environ.pop('ROS_STATIC_PEERS', None)
 

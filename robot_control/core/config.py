@@ -47,6 +47,8 @@ class ControllerConfig:
       held for a control period while a stiff contact's force keeps changing); 0 = the lecture's law.
     posture_gains: (kp0 1/s^2, kv0 1/s) of the null-space posture (hybrid, redundant arms).
     move_time: duration of a set_goal() move, s (> 0).
+    control_period: the period of the states the controller answers, s (> 0): laws whose designed gains
+      depend on the rate keep them stable at it (robot_control.laws.impedance).
     force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
     contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
       measured force explains, m/s along the axis; > 0, inf = off), robot_control.core.contact.ContactGuard.
@@ -77,6 +79,7 @@ class ControllerConfig:
     force_lead_time: float = 0.0
     posture_gains: tuple = (25.0, 10.0)
     move_time: float = 2.0
+    control_period: float = 0.001
     force_ramp_time: float = 0.5
     contact_max_travel: float = math.inf
     contact_max_speed: float = math.inf
@@ -110,6 +113,7 @@ class ControllerConfig:
         set_('posture_gains', tuple(validation.scalar(name, v, nonnegative=True)
                                     for name, v in zip(('posture_kp', 'posture_kv'), self.posture_gains)))
         set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
+        set_('control_period', validation.scalar('control_period', self.control_period, positive=True))
         set_('force_ramp_time', validation.scalar('force_ramp_time', self.force_ramp_time, nonnegative=True))
         for name in ('contact_max_travel', 'contact_max_speed'):
             value = getattr(self, name)
@@ -187,7 +191,8 @@ class ControllerConfig:
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
         return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
                 self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
-                self.posture_gains, self.integral_limit, self.law_params, self.friction_compensation)
+                self.posture_gains, self.integral_limit, self.control_period, self.law_params,
+                self.friction_compensation)
 
     def replace(self, **changes):
         """A copy with `changes` (checked)."""

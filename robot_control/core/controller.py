@@ -16,14 +16,15 @@ results to publish, in order, as an iterator that answers each state when it is 
 Command before taking the next: its tau is the controller's buffer): state_arrived() (a state of a paired stream may wait there for its
 wrench), wrench_arrived() and wait_over() (the node's one-shot timer: the wait is over). After
 publishing a Command the node calls sent() (watchdog, counts); its watchdog timer calls
-check_watchdog(). Stamps and clock readings are integer ns. Not thread-safe.
+check_watchdog(); law_warning() says when the law keeps saturating or falling back (for the node's log).
+Stamps and clock readings are integer ns. Not thread-safe.
 """
 import numpy as np
 
-from robot_control import validation
+from robot_control import units, validation
 from robot_control.core.joint_states import JointStateReader
 from robot_control.core.pairing import WrenchPairing
-from robot_control.core.status import Counters, controller_statuses, needs_wrench
+from robot_control.core.status import LAW_WARN_PERIOD, Counters, LawWatch, controller_statuses, needs_wrench
 from robot_control.core.tick import ControllerCore
 from robot_control.core.timeline import Timeline
 from robot_control.core.watchdog import StateWatchdog
@@ -61,6 +62,7 @@ class Controller:
         self.timeline = Timeline(state_timeout)
         self.watchdog = StateWatchdog(state_timeout)
         self.counters = Counters(INPUTS)
+        self.law_watch = LawWatch(units.to_ns(LAW_WARN_PERIOD))
         self._reader = JointStateReader(config.joints)
         self._pairing = WrenchPairing()
         self._pairs = needs_wrench(config)
@@ -165,6 +167,11 @@ class Controller:
         self.counters.commands_sent += 1
         self.counters.tick(tick_ns)
         return self.watchdog.fresh(node_ns, steady_ns)
+
+    def law_warning(self, steady_ns):
+        """At most once per LAW_WARN_PERIOD s of the monotonic clock (steady_ns): a warning when the law kept
+        saturating or fell back since the last look (core.status.LawWatch), else None."""
+        return self.law_watch.report(self.core, steady_ns)
 
     # -- running -----------------------------------------------------------------------------------------
     def restart(self):

@@ -2,9 +2,16 @@
 
 Five statuses, each (name, level, message, values) with level 'OK' | 'WARN' | 'ERROR' and values
 (key, value) pairs: the joint_states watchdog, effort saturation, rejected inputs, the control law,
-the trajectory (its goal and path tolerances).
+the trajectory (its goal and path tolerances). LawWatch says, for the node's log, when the law keeps
+saturating or falling back.
 """
 import dataclasses
+
+#: s of wall time between two warnings about the law (LawWatch)
+LAW_WARN_PERIOD = 5.0
+#: a window in which at least this fraction of the ticks saturated a joint "keeps saturating" (a few
+#: ticks at the limit while a fast move starts are the saturation doing its job, not a failure)
+SATURATION_WARN_FRACTION = 0.01
 
 
 @dataclasses.dataclass
@@ -123,3 +130,45 @@ def _law(name, core, counters):
 def needs_wrench(cfg):
     """True when the configured law reads the measured contact force (ft_sensor/wrench)."""
     return bool(cfg.force_axes) and cfg.control_law.uses_force and cfg.force_feedback == 'sensor'
+
+
+class LawWatch:
+    """Whether the law keeps saturating or falling back, for the node's log: report() gives a warning at
+    most once per `period_ns` of wall time.
+
+    The counts are the core's (ControllerCore: ticks, saturated_ticks, saturation_counts per joint,
+    fallbacks, last_fallback). Windows of period_ns of wall time follow each other from the first call;
+    the first call at or after a window's end compares the counts with those at its start and starts
+    the next: a warning when the law fell back on a tick of the window, or when at least
+    SATURATION_WARN_FRACTION of its ticks saturated a joint (law_warning)."""
+
+    def __init__(self, period_ns):
+        self.period_ns = int(period_ns)
+        self._end = None
+        self._start = None
+
+    def report(self, core, wall_ns):
+        """The warning of the window that ended by wall_ns (ns, a monotonic clock), or None."""
+        if self._end is not None and wall_ns < self._end:
+            return None
+        counts = (core.ticks, core.saturated_ticks, core.saturation_counts.copy(), core.fallbacks)
+        start, self._start, self._end = self._start, counts, wall_ns + self.period_ns
+        if start is None:
+            return None
+        ticks, saturated, per_joint, fallbacks = (now - then for now, then in zip(counts, start))
+        return law_warning(core.config, ticks, saturated, per_joint, fallbacks, core.last_fallback)
+
+
+def law_warning(cfg, ticks, saturated, per_joint, fallbacks, reason):
+    """The warning about the last `ticks` ticks of the law of ControllerConfig `cfg`: `saturated` of them
+    at an effort limit, per_joint (n,) the saturated ticks of each joint, `fallbacks` of them the gravity
+    hold after the law failed (the last failure: `reason`); None when there is nothing to say."""
+    parts = []
+    if fallbacks:
+        parts.append(f'law {cfg.law} failed and fell back to the gravity hold g(q) in {fallbacks} of the last '
+                     f'{ticks} ticks (last: {reason})')
+    if ticks and saturated >= SATURATION_WARN_FRACTION * ticks:
+        joints = ', '.join(f'{j} in {int(c)}' for j, c in zip(cfg.joints, per_joint) if c)
+        parts.append(f'law {cfg.law} saturated the effort limits in {saturated} of the last {ticks} ticks '
+                     f'({joints})')
+    return '; '.join(parts) or None

@@ -25,7 +25,8 @@ the force reference ramps from the measured force to its target over force_ramp_
 
 Bumpless switching: a new configuration (configure) takes effect on the next tick. Changing gains,
 the integral flag, the model or the force parameters keeps the references; a switch between two
-laws that track the joint reference keeps them too; any other switch restarts them. On the first
+laws that track the joint reference keeps them too; any other switch restarts them (on the next tick,
+or, when a new reference comes first, just before it is taken, from the last tick's state). On the first
 tick after a change the integral is re-initialised so that the new law's torque equals the last
 torque sent (zero without integral action).
 
@@ -111,6 +112,19 @@ def _reference(last, q_d, qd_d, qdd_d, f_d, fd_d, fdd_d, target, wrench):
     return Reference(q_d, qd_d, qdd_d, f_d, fd_d, fdd_d, target, wrench)
 
 
+def restart_references(refs, guard, t, state, cfg=None, f_meas=None):
+    """Start the References `refs` again at t (s) from the State's q and f, re-arm the ContactGuard `guard`
+    (or None); False: no restart is left pending. With `cfg`, a ControllerConfig newer than the State, f is
+    the force its law measures at that state (measure_task, f_meas the measured one)."""
+    f = state.f
+    if cfg is not None:
+        f = measure_task(cfg, state.q, state.qd, f_meas)[4] if cfg.control_law.uses_force else None
+    refs.start(t, state.q, f)
+    if guard is not None:
+        guard.reset()
+    return False
+
+
 def integral_map(law, state, ref, err):
     """(B = d tau / d int E of `law` at this tick, (ki, kv)); B None when the law fails there."""
     try:
@@ -132,7 +146,7 @@ class ControllerCore:
         self._cfg = config
         self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
         self._integral = Integral._of_checked(config.integral_dim, config.integral_limit)
-        self._state = self._ref = self._err = None   # the State, Reference and the law's Errors of the last tick
+        self._state = self._ref = self._err = self._f_meas = None   # the last tick's State, Reference, Errors, f_meas
         self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
         self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
         self._t = None
@@ -183,6 +197,7 @@ class ControllerCore:
         velocity limits; its goal and path tolerances are watched from now on. The start time t_start
         is on the update() time base, None = the last tick. Returns the start time used."""
         self._require_active('trajectory')
+        self._settle_restart()
         model = self._cfg.model
         limits = (*model.position_limits, model.velocity_limit, self._cfg.joints)
         traj = self._refs.set_trajectory(self._t, times, positions, velocities, accelerations, t_start, limits)
@@ -192,6 +207,7 @@ class ControllerCore:
     def hold_position(self):
         """Cancel the motion: hold the last measured position, at rest (an empty trajectory)."""
         self._require_active('hold')
+        self._settle_restart()
         self._refs.hold(self._t, self._state.q.copy())
         self.goal.cancel('cancelled by an empty trajectory')
 
@@ -212,10 +228,12 @@ class ControllerCore:
         at rest, from t_start (None: now; after the last tick: pending until then). Until the first
         target after a (re)start they follow the joint reference in the task space."""
         self._require_active('target_pose')
+        self._settle_restart()
         self._refs.set_task_target(self._t, validation.vector('x_d', x_d, self._cfg.model.task_dim), t_start)
 
     def set_target_wrench(self, wrench):
         """A feed-forward wrench (m,) N, N m on the task axes (impedance), the robot on its environment."""
+        self._settle_restart()
         self._refs.wrench = np.array(validation.vector('wrench', wrench, self._cfg.model.task_dim))
 
     @property
@@ -256,7 +274,7 @@ class ControllerCore:
         as robot_control.core.joint_states.JointStateReader gives them)."""
         law = self._cfg.control_law
         state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)
-        self._state = state
+        self._state, self._f_meas = state, f_meas
         dt = self._advance(state)
         self._ref = ref = sample_reference(self._cfg, self._refs, self._guard, state, self._ref)
         if law.tracks == 'joint' and self.goal.active:
@@ -283,12 +301,15 @@ class ControllerCore:
             self._reinit = False
             self.active = True
         if restart:
-            self._refs.start(t, state.q, state.f)
-            self._restart = False
-            if self._guard is not None:
-                self._guard.reset()
+            self._restart = restart_references(self._refs, self._guard, t, state)
         self._t = t
         return dt
+
+    def _settle_restart(self):
+        """A restart configure() left for the next tick is made now, from the last tick's state, before a new
+        trajectory, hold or task target is taken (that tick's restart would drop it)."""
+        if self._restart:
+            self._restart = restart_references(self._refs, self._guard, self._t, self._state, self._cfg, self._f_meas)
 
     def _watch_goal(self, state, ref):
         """Tolerances of the trajectory followed: a path violation or a missed goal holds the position (the

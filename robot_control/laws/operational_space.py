@@ -43,16 +43,28 @@ def check_law_fits(law, model):
                                    f'{list(model.task_axes)} and {model.n} joints')
 
 
-def _task_inertia_root(model, q, J):
-    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2) and Lambda^1/2, each (m, m)
-    symmetric positive definite, from one eigendecomposition J M^-1 J^T = V diag(w) V^T: Lambda =
-    V diag(1/w) V^T, Lambda^1/2 = V diag(w^-1/2) V^T. ArgumentError naming q when J(q) is (nearly)
-    singular: the spread of w beyond MAX_INERTIA_COND (J (m, n), m <= n)."""
+def _inverse_task_inertia(model, q, J):
+    """(w (m,), V (m, m)): the eigendecomposition J M^-1 J^T = V diag(w) V^T of the inverse operational-space
+    inertia Lambda^-1 (1/kg, 1/(kg m^2)). ArgumentError naming q when J(q) is (nearly) singular: the spread
+    of w beyond MAX_INERTIA_COND (J (m, n), m <= n)."""
     w, V = np.linalg.eigh(J @ model._Minv(q) @ J.T)
     if not w[0] * MAX_INERTIA_COND > w[-1]:
         raise ArgumentError('q', f'task Jacobian singular or nearly (eigenvalues of J M^-1 J^T {w.tolist()})')
+    return w, V
+
+
+def _inertia_roots(w, V):
+    """Lambda = V diag(1/w) V^T and Lambda^1/2 = V diag(w^-1/2) V^T, each (m, m) symmetric positive definite,
+    from the eigendecomposition (w, V) of Lambda^-1 (_inverse_task_inertia)."""
     root = V / np.sqrt(w)
     return root @ root.T, root @ V.T
+
+
+def _task_inertia_root(model, q, J):
+    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2) and Lambda^1/2, each (m, m)
+    symmetric positive definite, from one eigendecomposition of J M^-1 J^T; ArgumentError naming q when
+    J(q) is (nearly) singular (_inverse_task_inertia)."""
+    return _inertia_roots(*_inverse_task_inertia(model, q, J))
 
 
 def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda):

@@ -22,6 +22,16 @@ from robot_control import validation
 
 #: task spaces of a URDF model: their axes (the tip frame's position, then its orientation)
 TASK_SPACES = {'position': ('x', 'y', 'z'), 'pose': ('x', 'y', 'z', 'rx', 'ry', 'rz')}
+#: joints an arm needs to hold a pose: one per task axis of 'pose'
+POSE_JOINTS = len(TASK_SPACES['pose'])
+
+
+def task_space_for(task_space, n):
+    """The task space (a key of TASK_SPACES) `task_space` means on an arm whose tip n joints move: 'auto' is
+    'pose' where the arm can hold one (n >= POSE_JOINTS), else 'position'; 'position' and 'pose' are themselves."""
+    if task_space == 'auto':
+        return 'pose' if n >= POSE_JOINTS else 'position'
+    return task_space
 
 
 class RobotModel(ABC):

@@ -17,7 +17,7 @@ import pinocchio as pin
 from robot_control import units, validation
 from robot_control import urdf as urdf_files
 from robot_control.urdf import checks
-from robot_control.models.base import TASK_SPACES, RobotModel
+from robot_control.models.base import TASK_SPACES, RobotModel, task_space_for
 from robot_control.validation import ArgumentError
 
 #: world axes at the tip point, the frame of J and Jdot qd
@@ -120,7 +120,10 @@ class UrdfModel(RobotModel):
       keeps the link's name for the link: its own frame is '<name> (joint)'.
     task_space: 'position' (x, y, z of the tip frame's origin, m) or 'pose' (also rx, ry, rz: its
       orientation as the rotation vector log3(R), rad; velocities are the frame's twist, angular
-      velocity in world axes, and the orientation error is log3(R_d R^T), see _task_difference).
+      velocity in world axes, and the orientation error is log3(R_d R^T), see _task_difference), or 'auto':
+      pose where the arm can hold one (6 or more of the joints move the tip), else position
+      (models.base.task_space_for); the attribute task_space is the one taken, tip_joints the joints
+      that move the tip (in joint order).
     payload: None, or (mass kg, com (3,) m in the tip frame): a solid sphere carried by the tip
       (robot_control.urdf.with_payload, the same the simulator can carry).
     q_locked: positions of the other joints, a mapping {name: position} (rad or m; unnamed
@@ -132,8 +135,8 @@ class UrdfModel(RobotModel):
     def __init__(self, urdf, joints=None, tip=None, q_locked=None, gravity=(0.0, 0.0, -units.GRAVITY),
                  task_space='position', payload=None):
         gravity = validation.vector('gravity', gravity, 3)
-        if task_space not in TASK_SPACES:
-            raise ArgumentError('task_space', f'expected one of {list(TASK_SPACES)}, got {task_space!r}')
+        if task_space not in (*TASK_SPACES, 'auto'):
+            raise ArgumentError('task_space', f"expected one of {[*TASK_SPACES, 'auto']}, got {task_space!r}")
         xml, where = urdf_files.read(urdf)
         if payload is not None:
             if tip is None:
@@ -159,10 +162,14 @@ class UrdfModel(RobotModel):
         n = len(joints)
         self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # CRBA fills the upper triangle only
         self._limits(model, joints)
-        self.tip, self.frame_id, self.task_axes = None, None, ()
-        self.task_space = task_space
+        self.tip, self.frame_id, self.task_axes, self.tip_joints = None, None, (), ()
         if tip is not None:
-            self.tip, self.frame_id, self.task_axes = tip, _frame(model, tip), TASK_SPACES[task_space]
+            self.tip, self.frame_id = tip, _frame(model, tip)
+            moving = set(model.supports[model.frames[self.frame_id].parentJoint])
+            self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
+        self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
+        if tip is not None:
+            self.task_axes = TASK_SPACES[task_space]
         self._rows = slice(0, len(self.task_axes))    # rows of the frame's 6-D quantities in the task space
 
     def _limits(self, model, joints):

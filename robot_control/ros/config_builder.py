@@ -16,6 +16,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.gains import ServoGains
 from robot_control.laws import friction_compensation, law_class
 from robot_control.models import make_model
+from robot_control.models.base import POSE_JOINTS
 from robot_control.param_table import ParameterError
 from robot_control.validation import ArgumentError
 
@@ -116,6 +117,7 @@ class ConfigBuilder:
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
+            control_period=values['control_period'],
             law_params={row.name: values[row.name] for row in law.param_rows},
             friction_compensation=friction_compensation.values_of(values))
         q_d = values['q_d']
@@ -132,7 +134,13 @@ class ConfigBuilder:
         if key != self._model_key:
             self._model = self._make_model(values, params)
             self._model_key = key
-        return self._model
+        model = self._model
+        if values['model'] == 'urdf' and values['task_space'] == 'pose' and len(model.tip_joints) < POSE_JOINTS:
+            raise ParameterError('task_space', f'pose has {POSE_JOINTS} task axes: {len(model.tip_joints)} of the '
+                                               f'joints {list(model.joint_names)} move the tip {model.tip} '
+                                               f'({list(model.tip_joints)}), too few to hold a pose; set position, '
+                                               'or auto (pose where 6 or more joints move the tip)')
+        return model
 
     def _make_model(self, values, params):
         name = values['model']

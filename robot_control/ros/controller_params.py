@@ -39,6 +39,9 @@ def scenario_defaults(name):
     force_axes = tuple(task_axes[i] for i in sc.force_axes)
     out = {'model': sc.model, 'joints': tuple(sc.joints), 'urdf': sc.urdf, 'tip': sc.tip,
            'force_axes': force_axes, 'model_params': dict(sc.params)}
+    if sc.model == 'urdf':      # the lecture's URDF scenarios are written in the tip's position
+        out['task_space'] = 'position'
+
     if sc.surface is not None and force_axes:
         out['k_e'] = (sc.surface.k_e,) * len(force_axes)
         out['x_e'] = (sc.surface.x_e,) * len(force_axes)
@@ -113,9 +116,12 @@ def robot_rows(get):
         Row('tip', 'string', get('tip', ''),
             "model 'urdf': task frame (link) for fk/J, needed by the task-space laws (force, hybrid, impedance)",
             read_only=True),
-        Row('task_space', 'string', 'position',
-            "model 'urdf': the tip's task space: position (x, y, z, m) or pose (also rx, ry, rz: its orientation "
-            'as a rotation vector, rad; errors on SO(3))', [one_of(('position', 'pose'))], read_only=True),
+        Row('task_space', 'string', get('task_space', 'auto'),
+            "model 'urdf': the tip's task space: position (x, y, z, m), pose (also rx, ry, rz: its orientation "
+            'as a rotation vector, rad; errors on SO(3); needs 6 or more joints moving the tip) or auto (pose '
+            'where 6 or more of the joints move the tip, else position)',
+            [one_of(('auto', 'position', 'pose')), custom('pose: 6 or more joints moving the tip')],
+            read_only=True),
         Row('payload.mass', 'double', 0.0, "model 'urdf': mass carried by the tip, kg; 0 = none (set by "
             '~/identify_payload)', [gt_eq(0)], aliases=('payload',)),
         Row('payload.com', 'double_array', (0.0, 0.0, 0.0), "model 'urdf': the payload's centre of mass in the "
@@ -170,6 +176,9 @@ def servo_rows():
             [gt(0)], inf=True),
         Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
             '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
+        Row('control_period', 'double', 0.001, 'period of the joint_states the controller answers (the '
+            "bridge's control_period), s: the designed gains of the impedance law are kept stable at this rate",
+            [gt(0)]),
     ]
 
 

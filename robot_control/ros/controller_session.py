@@ -210,7 +210,11 @@ class ControllerSession:
 
     def _after_answer(self, stamp_ns, tick_ns):
         """Bookkeeping of an answered state: watchdog, counts, ~/reference, ~/error, diagnostics."""
-        recovered = self.controller.sent(self._node.get_clock().now().nanoseconds, time.monotonic_ns(), tick_ns)
+        steady_ns = time.monotonic_ns()
+        recovered = self.controller.sent(self._node.get_clock().now().nanoseconds, steady_ns, tick_ns)
+        warning = self.controller.law_warning(steady_ns)
+        if warning is not None:
+            self.log.warning(warning)
         if self.counters.commands_sent == 1:
             self.log.info(f'loop closed: the first command answers the state stamped '
                                    f'{units.seconds(stamp_ns):.3f} s (first state received: '

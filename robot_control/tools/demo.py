@@ -76,7 +76,10 @@ class RunResult:
 
 
 def config_path(scenario):
-    """config/<scenario>.yaml of this checkout, else of the installed package (share/robot_control/config)."""
+    """config/<scenario>.yaml of this checkout, else of the installed package (share/robot_control/config);
+    a `scenario` ending in .yaml is the path of a parameter file of one's own (a robot of no scenario)."""
+    if str(scenario).endswith('.yaml'):
+        return Path(scenario)
     path = _config_file(f'{scenario}.yaml')
     if path is None:
         raise ValueError(f'scenario: no parameter file {scenario}.yaml in {ROOT / "config"} or the install')

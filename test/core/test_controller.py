@@ -89,3 +89,43 @@ def test_the_watchdog_stops_the_law_and_the_next_state_restarts_it():
     assert ctrl.counters.commands_sent == 2 and ctrl.counters.tick_count == 2
     levels = [s[1] for s in ctrl.statuses('c', 5_000 * MS, 5_000 * MS)]
     assert levels[0] == 'OK'
+
+
+# -- the law's warnings for the node's log ------------------------------------------------------------------
+def test_a_law_that_keeps_falling_back_is_a_warning_once_per_period_with_the_count_and_the_reason():
+    """Impedance on the planar arm stretched out (a singular Jacobian): every tick falls back to g(q). The
+    first look opens the window; a look before its end says nothing; the look after it counts its ticks."""
+    planar = make_model('planar_two_link')
+    ctrl = Controller(ControllerConfig(planar, law='impedance'), 0.5)
+    period = ctrl.law_watch.period_ns
+    stretched = [0.3, 0.0]
+    ctrl.step(0, planar.joint_names, stretched, [0.0, 0.0])
+    assert ctrl.law_warning(0) is None                          # the window opens
+    for k in range(1, 40):
+        ctrl.step(k * MS, planar.joint_names, stretched, [0.0, 0.0])
+    assert ctrl.law_warning(period - 1) is None                 # not over yet
+    warning = ctrl.law_warning(period)
+    assert warning.startswith('law impedance failed and fell back to the gravity hold g(q) in 39 of the last 39 '
+                              'ticks (last: q: task Jacobian singular'), warning
+    assert ctrl.law_warning(period + 1) is None                 # throttled: the next window has begun
+    ctrl.step(40 * MS, planar.joint_names, [0.3, 0.8], [0.0, 0.0])
+    assert ctrl.law_warning(2 * period) is None                 # a window without a fallback says nothing
+
+
+def test_a_law_that_keeps_saturating_is_named_with_its_joints_a_few_saturated_ticks_are_not():
+    """Effort limits of 0.5 N m / N hold nothing: every tick saturates both joints. One saturated tick in
+    200 (below SATURATION_WARN_FRACTION) is no warning."""
+    from robot_control.core.status import SATURATION_WARN_FRACTION
+    weak = Controller(polar().replace(effort_limit=[0.5, 0.5]), 0.5)
+    weak.law_warning(0)
+    for k in range(30):
+        weak.step(k * MS, ['theta1', 'r'], [0.3, 0.7], [0.0, 0.0])
+    assert weak.law_warning(weak.law_watch.period_ns) == ('law computed_torque saturated the effort limits in 30 of '
+                                                          'the last 30 ticks (theta1 in 30, r in 30)')
+    ctrl = Controller(polar(), 0.5)
+    ctrl.law_warning(0)
+    ctrl.step(0, ['theta1', 'r'], [0.3, 0.7], [0.0, 50.0])        # 50 m/s: the damping asks for more than 200 N
+    for k in range(1, 200):
+        ctrl.step(k * MS, ['theta1', 'r'], [0.3, 0.7], [0.0, 0.0])
+    assert ctrl.core.saturated_ticks == 1 and 1 < SATURATION_WARN_FRACTION * 200
+    assert ctrl.law_warning(ctrl.law_watch.period_ns) is None

@@ -646,3 +646,38 @@ def test_a_law_reads_its_inputs_and_writes_none_of_them(case):
     for k in range(20):
         core.update(k * DT, *random_state(q0.shape[0], 0.002, q0), f_meas)
     assert len(seen) == 20 and all(seen)
+
+
+def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
+    """A switch from a law without a reference restarts the references; a trajectory (or a task target) that
+    comes before the next tick, as one sent right after `ros2 param set law ...` while the simulator is
+    paused, is followed: the restart happens before it is taken, from the last tick's state."""
+    q0 = np.array([0.2, 0.6])
+    core = ControllerCore(polar_config(law='gravity_compensation', gains=None))
+    core.update(0.0, q0, np.zeros(2))
+    core.configure(polar_config())
+    core.set_trajectory([1.0], [[0.5, 0.9]])
+    core.update(0.001, q0, np.zeros(2))
+    np.testing.assert_allclose(core.reference_at(1.0)[0], [0.5, 0.9])
+    np.testing.assert_array_less(q0, core.reference_at(0.5)[0])
+    xy = xy_config()
+    core = ControllerCore(xy.replace(law='gravity_compensation', gains=None, force_gains=None, force_axes=(),
+                                     k_e=(), x_e=()))
+    core.update(0.0, np.array([0.3, 0.1]), np.zeros(2))
+    core.configure(ControllerConfig(xy.model, law='impedance', effort_limit=[200.0, 200.0]))
+    core.set_target_pose([0.32, 0.12])
+    core.update(0.001, np.array([0.3, 0.1]), np.zeros(2))
+    np.testing.assert_array_equal(core.reference[0], [0.32, 0.12])
+    # a law that uses force: its force reference still ramps from the force measured at the restart
+    d = design(1.0, 12.0)
+    ct = ControllerConfig(xy.model, gains=d.gains(2), effort_limit=[200.0, 200.0], force_axes=('x',), k_e=[1000.0],
+                          x_e=[0.3], force_feedback='model')
+    core = ControllerCore(ct)
+    q = np.array([0.301, 0.05])
+    core.update(0.0, q, np.zeros(2))
+    core.configure(ct.replace(law='hybrid', force_gains=d.gains(1)))
+    core.set_force_reference([5.0])
+    core.set_target_pose([0.0, 0.08])
+    core.update(0.001, q, np.zeros(2))
+    assert core.reference[0][0] == pytest.approx(1000.0 * 0.001)     # f_d from the measured 1 N
+    assert core.reference[0][1] == 0.08                              # y: the target given before the tick

@@ -199,7 +199,7 @@ def test_the_template_is_an_arm_the_package_does_not_ship_and_loads_through_both
     values = _through_table(controller_params.TABLE, ctrl)
     config = ConfigBuilder()(values)
     assert list(config.joints) == ctrl['joints'] == [f'joint{i}' for i in range(1, 8)]
-    assert config.model.task_axes == ('x', 'y', 'z') and np.all(config.effort_limit > 0.0)
+    assert config.model.task_axes == ('x', 'y', 'z', 'rx', 'ry', 'rz') and np.all(config.effort_limit > 0.0)
     np.testing.assert_array_equal(config.gains.kp, [36.0] * 7)     # omega_n = omega_res / 2 = 6 rad/s
     cfg = bridge_params.build(_through_table(bridge_params.TABLE, bridge))
     assert cfg.joints == tuple(ctrl['joints']) and cfg.urdf == urdf_files.resolve(ctrl['urdf'])

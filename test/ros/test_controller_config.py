@@ -116,3 +116,48 @@ def test_a_law_with_its_own_parameter_is_one_class_and_one_registry_entry(monkey
     cfg = ConfigBuilder()(_values(scenario='polar_two_link', law='damping', damping=5.0))
     assert cfg.law_params == DampingParams(5.0) and cfg.control_law.name == 'damping'
     assert ConfigBuilder()(_values(scenario='polar_two_link')).law_params is None     # computed torque: none
+
+
+# -- your own arm: the task space by the arm, refusals naming the parameter ------------------------------------
+XARM = dict(model='urdf', urdf='xarm_description/urdf/xarm7.urdf', tip='link7',
+            joints=[f'joint{i}' for i in range(1, 8)])
+SO100 = dict(model='urdf', urdf='so_arm_description/urdf/so100.urdf', tip='gripper',
+             joints=['shoulder_pan', 'shoulder_lift', 'elbow_flex', 'wrist_flex', 'wrist_roll'])
+
+
+def test_the_default_task_space_is_the_pose_where_the_arm_can_hold_one_and_explicit_values_stay():
+    build = ConfigBuilder()
+    assert params.TABLE.resolve()[0]['task_space'].default == 'auto'
+    assert build(_values(**XARM, law='impedance')).model.task_axes == ('x', 'y', 'z', 'rx', 'ry', 'rz')
+    assert build(_values(**SO100, law='impedance')).model.task_axes == ('x', 'y', 'z')
+    # all six movable joints: the gripper's moves the jaw, not the tip; five cannot hold a pose
+    every = build(_values(**dict(SO100, joints=[]), law='impedance')).model
+    assert len(every.joint_names) == 6 and every.task_axes == ('x', 'y', 'z')
+    assert build(_values(**XARM, law='impedance', task_space='position')).model.task_axes == ('x', 'y', 'z')
+    # the lecture's URDF scenarios are written in the tip's position
+    assert build(_values(scenario='iiwa', law='hybrid')).model.task_axes == ('x', 'y', 'z')
+
+
+@pytest.mark.parametrize('arm, changes, name, match', [
+    (SO100, {'task_space': 'pose'}, 'task_space',
+     r"^task_space: pose has 6 task axes: 5 of the joints \['shoulder_pan', .*\] move the tip gripper .*, too few"),
+    (dict(SO100, joints=[]), {'task_space': 'pose'}, 'task_space',
+     r"^task_space: pose has 6 task axes: 5 of the joints \[.*'wrist_roll', 'gripper'\] move the tip gripper "
+     r"\(\['shoulder_pan', 'shoulder_lift', 'elbow_flex', 'wrist_flex', 'wrist_roll'\]\), too few to hold a pose"),
+    (XARM, {'task_space': 'position', 'cartesian_stiffness': [1000.0, 1000.0, 1000.0, 100.0, 0.0, 50.0]},
+     'cartesian_stiffness', r'^cartesian_stiffness: rx = 100, rz = 50 act on the orientation, which the task '
+                            r"space \['x', 'y', 'z'\] does not hold: set task_space pose"),
+    (SO100, {'cartesian_damping': [10.0, 10.0, 10.0, 1.0, 1.0, 1.0]}, 'cartesian_damping',
+     '^cartesian_damping: rx = 1, ry = 1, rz = 1 act on the orientation'),
+])
+def test_a_configuration_that_cannot_work_is_refused_naming_the_parameter(arm, changes, name, match):
+    with pytest.raises(ArgumentError, match=match) as err:
+        ConfigBuilder()(_values(**arm, law='impedance', **changes))
+    rows, _ = params.TABLE.resolve()
+    assert rows.error(err.value).name == name
+
+
+def test_translational_stiffness_alone_in_a_position_task_space_is_taken():
+    cfg = ConfigBuilder()(_values(**SO100, law='impedance', cartesian_stiffness=[500.0, 600.0, 700.0, 0.0, 0.0, 0.0]))
+    np.testing.assert_array_equal(cfg.control_law.K, [500.0, 600.0, 700.0])
+    assert cfg.control_law.w_max is None                   # explicit: used as given

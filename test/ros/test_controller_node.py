@@ -538,6 +538,35 @@ def test_a_gain_rule_override_given_at_start_up_designs_the_gains(ros_context, n
         np.testing.assert_array_equal(ctrl.core.config.gains.kv, [kv, kv])
 
 
+SO100_ARM = dict(model='urdf', urdf='so_arm_description/urdf/so100.urdf', tip='gripper', law='impedance',
+                 joints=['shoulder_pan', 'shoulder_lift', 'elbow_flex', 'wrist_flex', 'wrist_roll'])
+
+
+@pytest.mark.parametrize('changes, name', [
+    ({'task_space': 'pose'}, 'task_space'),                                       # 5 joints cannot hold a pose
+    ({'cartesian_stiffness': [1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0]}, 'cartesian_stiffness'),  # auto: position
+])
+def test_a_configuration_that_cannot_work_stops_the_node_at_start_up_naming_the_parameter(ros_context, changes,
+                                                                                         name):
+    from robot_control.ros.controller_params import ParameterError
+    overrides = [Parameter(k, value=v) for k, v in dict(SO100_ARM, **changes).items()]
+    with pytest.raises(ParameterError, match=f'^{name}: ') as err:
+        ControllerNode(context=ros_context, parameter_overrides=overrides)
+    assert err.value.name == name
+
+
+def test_a_configuration_that_cannot_work_is_refused_at_run_time_naming_the_parameter(ros_context):
+    """The SO-100's position task space: rotational stiffness set while running is refused, the law runs on."""
+    with rig(ros_context, **SO100_ARM) as (ex, ctrl, robot):
+        result = ctrl.set_parameters([Parameter('cartesian_stiffness', value=[800.0, 800.0, 800.0, 0.0, 0.0, 20.0])])
+        assert not result[0].successful and result[0].reason.startswith('cartesian_stiffness: rz = 20 act on the '
+                                                                        'orientation'), result[0].reason
+        assert ctrl.get_parameter('cartesian_stiffness').value in ((), [])
+        assert ctrl.set_parameters([Parameter('cartesian_stiffness', value=[800.0, 800.0, 800.0, 0.0, 0.0, 0.0])])[
+            0].successful
+        np.testing.assert_array_equal(ctrl.core.config.control_law.K, [800.0, 800.0, 800.0])
+
+
 def test_read_only_parameters_cannot_change(ros_context):
     with rig(ros_context, **POLAR) as (ex, ctrl, robot):
         for name, value in (('joints', ['a', 'b']), ('model', 'single_link'), ('scenario', 'iiwa')):
@@ -707,6 +736,43 @@ def test_a_run_of_rejections_calls_the_logger_once_per_throttle_period(ros_conte
             ctrl.session.reject('joint_states', f'bad {k}')
         assert ctrl.rejected['joint_states'] == 100 and ctrl.last_rejection == 'joint_states: bad 99'
         assert warnings == ['rejected joint_states: bad 0']
+
+class CapturedWarnings:
+    """The controller's logger with its warnings captured as (wall time s, text); every other call passes on."""
+
+    def __init__(self, logger):
+        self.logger, self.lines = logger, []
+
+    def warning(self, text, **kwargs):
+        self.lines.append((time.monotonic(), text))
+
+    def __getattr__(self, name):
+        return getattr(self.logger, name)
+
+
+def test_a_law_that_keeps_saturating_is_a_throttled_warning_in_the_node_s_log(ros_context):
+    """Effort limits of 0.5 N m / N hold nothing: every tick saturates both joints. The node's log says so,
+    naming the joints and the counts, at most once per the Controller's period (shortened to 0.3 s here
+    from LAW_WARN_PERIOD), each window's counts following on from the last."""
+    import re
+    period = 0.3
+    with rig(ros_context, **dict(POLAR, effort_limits=[0.5, 0.5])) as (ex, ctrl, robot):
+        log = ctrl.session.log = CapturedWarnings(ctrl.session.log)
+        ctrl.session.controller.law_watch.period_ns = units.to_ns(period)
+        k, deadline = 0, time.monotonic() + 60.0
+        while len(log.lines) < 3 and time.monotonic() < deadline:
+            robot.step(ex, POLAR_JOINTS, [0.3, 0.7], [0.0, 0.0], T0_NS + k * DT_NS)
+            k += 1
+    assert len(log.lines) >= 3, log.lines
+    said = re.compile(r'law computed_torque saturated the effort limits in (\d+) of the last (\d+) ticks '
+                      r'\(theta1 in (\d+), r in (\d+)\)$')
+    counts = [[int(g) for g in said.match(text).groups()] for _, text in log.lines]
+    assert all(len(set(c)) == 1 for c in counts), counts          # every tick saturated both joints
+    assert sum(c[0] for c in counts) <= k
+    gaps = np.diff([t for t, _ in log.lines])
+    print(f'{len(log.lines)} warnings over {k} ticks, {gaps.min():.3f} s apart at least: {log.lines[0][1]}')
+    assert gaps.min() >= period
+
 
 def test_diagnostics_are_throttled_to_their_period(ros_context):
     with rig(ros_context, **dict(POLAR, diagnostics_period=0.2)) as (ex, ctrl, robot):

@@ -22,6 +22,9 @@ from robot_control.tools.processes import DomainClaim
 
 #: the ids the runs claim: 71-80, or E2E_DOMAINS="first-last" (a range kept clear of concurrent suites)
 E2E_DOMAINS = range(*(lambda a, b: (int(a), int(b) + 1))(*os.environ.get('E2E_DOMAINS', '71-80').split('-')))
+#: the domain ids of test/e2e/test_own_arm.py (the user's own arm), claimed like the others; clear of the
+#: end-to-end pool (71-80) and the robustness rigs (81-92)
+OWN_ARM_DOMAINS = (98, 99)
 WORKERS = int(os.environ.get('E2E_WORKERS', '2'))
 RUN_TIMEOUT = 300.0          # s of wall time for one run, start-up included
 _next = itertools.count()
@@ -90,7 +93,8 @@ def physics_summary(data, experiment_name, duration):
 
 
 class Lockstep:
-    """One lockstep loop (bridge and controller processes with config/<scenario>.yaml) driven step by step
+    """One lockstep loop (bridge and controller processes with config/<scenario>.yaml, or a parameter file of
+    one's own: `scenario` a path ending in .yaml) driven step by step
     from this process (robot_control.tools.demo.LiveRun): the bridge starts paused at t = 0; advance(t)
     runs the simulation until the command of the tick at t s has arrived and pauses it again, so
     references sent and parameters set between two advances take effect at a known tick.
@@ -100,7 +104,7 @@ class Lockstep:
         from robot_control.tools import processes
         self.live = demo.LiveRun(domain_id, processes.ros_env(domain_id), log_dir, lambda *a, **k: None)
         self.scenario, self.bridge_params, self.controller_params = scenario, bridge or {}, controller or {}
-        self._bridge_client = None
+        self._clients = {}           # node name -> AsyncParameterClient
 
     def __enter__(self):
         try:
@@ -147,18 +151,25 @@ class Lockstep:
 
     def set_bridge(self, **params):
         """Set parameters of the running bridge (names with '__' for '.') through its parameter service."""
+        self._set('sim_bridge', params)
+
+    def set_controller(self, **params):
+        """Set parameters of the running controller (names with '__' for '.') through its parameter service."""
+        self._set('controller', params)
+
+    def _set(self, node, params):
         from rclpy.parameter import Parameter
         from rclpy.parameter_client import AsyncParameterClient
-        if self._bridge_client is None:
-            self._bridge_client = AsyncParameterClient(self.control.node, '/sim_bridge')
-        client = self._bridge_client
+        if node not in self._clients:
+            self._clients[node] = AsyncParameterClient(self.control.node, f'/{node}')
+        client = self._clients[node]
         self.control.spin_until(client.services_are_ready, demo.STARTUP_TIMEOUT, self.live.alive,
-                                'the bridge parameter services')
+                                f'the {node} parameter services')
         future = client.set_parameters([Parameter(k.replace('__', '.'), value=v) for k, v in params.items()])
-        self.control.spin_until(future.done, demo.CONFIRM_TIMEOUT, self.live.alive, 'the bridge to set parameters')
+        self.control.spin_until(future.done, demo.CONFIRM_TIMEOUT, self.live.alive, f'the {node} to set parameters')
         bad = [r.reason for r in future.result().results if not r.successful]
         if bad:
-            raise RuntimeError(f'the bridge refused {params}: {bad}')
+            raise RuntimeError(f'the {node} refused {params}: {bad}')
 
     def states(self):
         """(t (k,) s, q (k, n), qd (k, n)) of every joint_states tick so far, in the bridge's joint order
