@@ -57,6 +57,9 @@ class ControllerConfig:
     trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
       goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
       (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
+    velocity_cutoff_hz: f_c of the velocity estimated from the positions (robot_control.core.velocity), Hz,
+      >= 0; 0 = the joint states' own velocities (a state without velocities: estimated at
+      DEFAULT_CUTOFF_HZ).
     friction_compensation: tau_f = Fc tanh(v / v_s) + Fv v added to every law's torque: a mapping of
       coulomb, viscous, velocity_threshold, velocity, or a FrictionCompensation
       (robot_control.laws.friction_compensation); held as that, or None when off (Fc = Fv = 0).
@@ -86,6 +89,7 @@ class ControllerConfig:
     stopped_velocity_tolerance: float = 0.01
     law_params: object = None
     friction_compensation: object = None
+    velocity_cutoff_hz: float = 0.0
 
     def __post_init__(self):
         model = self.model
@@ -119,6 +123,7 @@ class ControllerConfig:
         self._set_tolerances(set_)
         set_('law_params', law.make_params(self.law_params))
         set_('friction_compensation', FrictionCompensation.of(self.friction_compensation, model.n))
+        set_('velocity_cutoff_hz', validation.scalar('velocity_cutoff_hz', self.velocity_cutoff_hz, nonnegative=True))
         set_('_law', law(self))
 
     def _set_force_axes(self, set_):

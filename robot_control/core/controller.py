@@ -26,6 +26,7 @@ from robot_control.core.pairing import WrenchPairing
 from robot_control.core.status import Counters, controller_statuses, needs_wrench
 from robot_control.core.tick import ControllerCore
 from robot_control.core.timeline import Timeline
+from robot_control.core.velocity import DEFAULT_CUTOFF_HZ, METHOD, VelocityEstimator
 from robot_control.core.watchdog import StateWatchdog
 
 #: rejected-input sources, in the order /diagnostics lists them
@@ -62,6 +63,8 @@ class Controller:
         self.watchdog = StateWatchdog(state_timeout)
         self.counters = Counters(INPUTS)
         self._reader = JointStateReader(config.joints)
+        self._velocity = VelocityEstimator(config.n)
+        self._cutoff = 0.0                  # f_c of the last state's velocity estimate, Hz (0: measured)
         self._pairing = WrenchPairing()
         self._pairs = needs_wrench(config)
         self._f_meas = np.zeros(config.model.task_dim)
@@ -146,6 +149,14 @@ class Controller:
         except ValueError as exc:
             self.counters.reject('joint_states', exc)
             return Rejection(stamp_ns, 'joint_states', str(exc))
+        cutoff = core.config.velocity_cutoff_hz or (DEFAULT_CUTOFF_HZ if qd is None else 0.0)
+        if cutoff:
+            if not (core.active and self._cutoff):   # a (re)start, or the estimate taking over: from qd (or rest)
+                self._velocity.reset()
+            qd = self._velocity.update(t, q, qd, cutoff)
+        if cutoff != self._cutoff:
+            self._cutoff = cutoff
+            self.counters.velocity_source = f'estimated: {METHOD}, f_c = {cutoff:g} Hz' if cutoff else 'measured'
         tau = core.update_checked(t, q, qd, self._f_meas)
         return Command(stamp_ns, tau, core.tau_values)
 

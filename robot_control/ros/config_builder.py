@@ -117,7 +117,8 @@ class ConfigBuilder:
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
             law_params={row.name: values[row.name] for row in law.param_rows},
-            friction_compensation=friction_compensation.values_of(values))
+            friction_compensation=friction_compensation.values_of(values),
+            velocity_cutoff_hz=values['velocity_filter.cutoff_hz'])
         q_d = values['q_d']
         if q_d and len(q_d) != model.n:
             raise ParameterError('q_d', f'expected empty or {model.n} values (one per joint), got {len(q_d)}')
