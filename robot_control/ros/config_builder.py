@@ -107,7 +107,8 @@ class ConfigBuilder:
         force = servo_gains(values, 'force_', k, design) if k else None
         config = ControllerConfig(
             model=model, law=values['law'], gains=motion, force_gains=force, integral=values['integral'],
-            integral_limit=values['integral_limit'], effort_limit=values['effort_limits'] or None,
+            integral_limit=values['integral_limit'], integral_rest_velocity=values['integral_rest_velocity'],
+            effort_limit=values['effort_limits'] or None,
             joints=values['joints'] or None, force_axes=values['force_axes'],
             k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
             force_lead_time=values['force_lead_time'], posture_gains=(values['posture_kp'], values['posture_kv']),
