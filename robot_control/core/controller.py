@@ -1,7 +1,8 @@
 """Controller: the whole controller without ROS, from a joint state to the command that answers it.
 
 One object owns everything a state goes through: reading q, qd by joint name
-(robot_control.core.joint_states), the time line of the stamps (core.timeline), the pairing of a
+(robot_control.core.joint_states; qd estimated from q by robot_control.core.velocity when
+velocity_cutoff_hz is set or the state carries no velocities), the time line of the stamps (core.timeline), the pairing of a
 state with the wrench of its own tick (core.pairing), the law's tick on the core's time (references,
 integral, saturation: core.tick.ControllerCore), the joint_states watchdog (core.watchdog) and the
 counts /diagnostics reports (core.status). A node, a test or an offline tool drives it the same way:
