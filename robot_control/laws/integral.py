@@ -21,9 +21,10 @@ while |Ed_i| <= v_r, i.e. while its error is at rest (holding a position: while 
 Why the integral hunts without it, on a joint with Coulomb friction F_c and stiction: at rest the joint
 is held by the friction while |tau - tau_needed| <= F_c, so a small error stays and the integral winds
 up while the joint sticks; it breaks away once the stored torque exceeds the friction, and while it
-slides the integral keeps winding on the error that remains; the stored torque carries the joint past
-the target, where it sticks again with the error reversed, and the cycle repeats the other way (a
-stick-slip limit cycle). With a rotor inertia I_a the law's model does not know (the armature), the
+slides the integral keeps winding on the error that remains; where the friction drops once the joint
+slides (stiction above the Coulomb level, as in real gears) or the loop is poorly damped, the stored
+torque carries the joint past the target, where it sticks again with the error reversed, and the cycle
+repeats the other way (a stick-slip limit cycle). With a rotor inertia I_a the law's model does not know (the armature), the
 integral is worse still: computed torque scales its servo by the model's M_ii, so the true loop is
 (M_ii + I_a) s^3 + M_ii kv s^2 + M_ii kp s + M_ii ki, unstable once (M_ii + I_a) ki > M_ii kp kv
 (Routh); on the iiwa's wrist (M_77 = 0.001 kg m^2, I_a = 0.1 kg m^2, kp, kv, ki = 108, 18, 216) the
