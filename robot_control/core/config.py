@@ -38,6 +38,8 @@ class ControllerConfig:
     force_gains: ServoGains (k,) one per force axis (force and hybrid laws), 1/s^2, 1/s, 1/s^3.
     integral: integral action on (ki used) or off (ki ignored, no integral state).
     integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
+    integral_rest_velocity: v_r, > 0, in units of Ed (rad/s, m/s or N/s): entry i integrates only while
+      |Ed_i| <= v_r, the error at rest (robot_control.laws.integral.moving); inf = always.
     effort_limit: (n,) N m or N, > 0 (inf allowed); None = model.effort_limit.
     joints: joint names in model order; None = model.joint_names.
     force_axes: names of the force-controlled task axes (subset of model.task_axes, kept in their order).
@@ -59,6 +61,9 @@ class ControllerConfig:
     trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
       goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
       (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
+    velocity_cutoff_hz: f_c of the velocity estimated from the positions (robot_control.core.velocity), Hz,
+      >= 0; 0 = the joint states' own velocities (a state without velocities: estimated at
+      DEFAULT_CUTOFF_HZ).
     friction_compensation: tau_f = Fc tanh(v / v_s) + Fv v added to every law's torque: a mapping of
       coulomb, viscous, velocity_threshold, velocity, or a FrictionCompensation
       (robot_control.laws.friction_compensation); held as that, or None when off (Fc = Fv = 0).
@@ -70,6 +75,7 @@ class ControllerConfig:
     force_gains: ServoGains = None
     integral: bool = False
     integral_limit: float = math.inf
+    integral_rest_velocity: float = math.inf
     effort_limit: np.ndarray = None
     joints: tuple = None
     force_axes: tuple = ()
@@ -89,6 +95,7 @@ class ControllerConfig:
     stopped_velocity_tolerance: float = 0.01
     law_params: object = None
     friction_compensation: object = None
+    velocity_cutoff_hz: float = 0.0
 
     def __post_init__(self):
         model = self.model
@@ -107,6 +114,8 @@ class ControllerConfig:
         set_('integral', bool(self.integral))
         set_('force_lead_time', validation.scalar('force_lead_time', self.force_lead_time, nonnegative=True))
         set_('integral_limit', float(validation.limit_vector('integral_limit', self.integral_limit, 1)[0]))
+        set_('integral_rest_velocity', float(validation.limit_vector('integral_rest_velocity',
+                                                                     self.integral_rest_velocity, 1)[0]))
         limit = model.effort_limit if self.effort_limit is None else self.effort_limit
         set_('effort_limit', _frozen(validation.limit_vector('effort_limits', limit, model.n)))
         self._set_force_axes(set_)
@@ -123,6 +132,7 @@ class ControllerConfig:
         self._set_tolerances(set_)
         set_('law_params', law.make_params(self.law_params))
         set_('friction_compensation', FrictionCompensation.of(self.friction_compensation, model.n))
+        set_('velocity_cutoff_hz', validation.scalar('velocity_cutoff_hz', self.velocity_cutoff_hz, nonnegative=True))
         set_('_law', law(self))
 
     def _set_force_axes(self, set_):
@@ -191,8 +201,8 @@ class ControllerConfig:
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
         return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
                 self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
-                self.posture_gains, self.integral_limit, self.control_period, self.law_params,
-                self.friction_compensation)
+                self.posture_gains, self.integral_limit, self.integral_rest_velocity, self.control_period,
+                self.law_params, self.friction_compensation)
 
     def replace(self, **changes):
         """A copy with `changes` (checked)."""

@@ -1,7 +1,8 @@
 """Controller: the whole controller without ROS, from a joint state to the command that answers it.
 
 One object owns everything a state goes through: reading q, qd by joint name
-(robot_control.core.joint_states), the time line of the stamps (core.timeline), the pairing of a
+(robot_control.core.joint_states; qd estimated from q by robot_control.core.velocity when
+velocity_cutoff_hz is set or the state carries no velocities), the time line of the stamps (core.timeline), the pairing of a
 state with the wrench of its own tick (core.pairing), the law's tick on the core's time (references,
 integral, saturation: core.tick.ControllerCore), the joint_states watchdog (core.watchdog) and the
 counts /diagnostics reports (core.status). A node, a test or an offline tool drives it the same way:
@@ -27,6 +28,7 @@ from robot_control.core.pairing import WrenchPairing
 from robot_control.core.status import LAW_WARN_PERIOD, Counters, LawWatch, controller_statuses, needs_wrench
 from robot_control.core.tick import ControllerCore
 from robot_control.core.timeline import Timeline
+from robot_control.core.velocity import DEFAULT_CUTOFF_HZ, METHOD, VelocityEstimator
 from robot_control.core.watchdog import StateWatchdog
 
 #: rejected-input sources, in the order /diagnostics lists them
@@ -64,6 +66,8 @@ class Controller:
         self.counters = Counters(INPUTS)
         self.law_watch = LawWatch(units.to_ns(LAW_WARN_PERIOD))
         self._reader = JointStateReader(config.joints)
+        self._velocity = VelocityEstimator(config.n)
+        self._cutoff = 0.0                  # f_c of the last state's velocity estimate, Hz (0: measured)
         self._pairing = WrenchPairing()
         self._pairs = needs_wrench(config)
         self._f_meas = np.zeros(config.model.task_dim)
@@ -148,6 +152,14 @@ class Controller:
         except ValueError as exc:
             self.counters.reject('joint_states', exc)
             return Rejection(stamp_ns, 'joint_states', str(exc))
+        cutoff = core.config.velocity_cutoff_hz or (DEFAULT_CUTOFF_HZ if qd is None else 0.0)
+        if cutoff:
+            if not (core.active and self._cutoff):   # a (re)start, or the estimate taking over: from qd (or rest)
+                self._velocity.reset()
+            qd = self._velocity.update(t, q, qd, cutoff)
+        if cutoff != self._cutoff:
+            self._cutoff = cutoff
+            self.counters.velocity_source = f'estimated: {METHOD}, f_c = {cutoff:g} Hz' if cutoff else 'measured'
         tau = core.update_checked(t, q, qd, self._f_meas)
         return Command(stamp_ns, tau, core.tau_values)
 

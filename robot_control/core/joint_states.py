@@ -2,7 +2,8 @@
 
 A state lists joints by name, in any order, maybe more than the controlled ones (a real joint_states
 carries grippers, other arms, ...): the controlled joints must all be present, once each, with finite
-position and velocity within +-MAX_ABS, and position and velocity must have one entry per name.
+position and velocity within +-MAX_ABS, and position must have one entry per name; velocity one entry per
+name or none (a driver that sends no velocities: qd is then None, robot_control.core.velocity estimates it).
 Bad input raises an ArgumentError naming the field, e.g. "position: not finite for 'r': nan".
 """
 import math
@@ -77,12 +78,15 @@ class JointStateReader:
         return self.read_fields(msg.name, msg.position, msg.velocity)
 
     def read_fields(self, names, position, velocity):
-        """(q, qd) in the order of `joints` from a state's names (k,), positions and velocities (k,) each."""
+        """(q, qd) in the order of `joints` from a state's names (k,), positions (k,) and velocities (k,) or
+        none (then qd is None)."""
         k = len(names)
         if len(position) != k:
             raise ArgumentError('position', f'expected one entry per name ({k}), got {len(position)}')
         if len(velocity) != k:
-            raise ArgumentError('velocity', f'expected one entry per name ({k}), got {len(velocity)}')
+            if len(velocity) == 0 and k:
+                return self._positions(names, position)
+            raise ArgumentError('velocity', f'expected one entry per name ({k}) or none, got {len(velocity)}')
         index = self._index_for(names)
         q, qd = self._q, self._qd
         if self._in_order and type(position) is tuple and type(velocity) is tuple:
@@ -109,11 +113,25 @@ class JointStateReader:
             return q, qd
         if q is not self._q:
             self._q[:], self._qd[:] = q, qd
-        for field, values in (('position', self._q), ('velocity', self._qd)):
-            if not np.isfinite(values).all():
-                bad = [f'{self.joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
-                raise ArgumentError(field, f'not finite for {", ".join(bad)}')
-            if not plausible(values):
-                bad = [f'{self.joints[i]!r}: {values[i]:g}' for i in np.flatnonzero(np.abs(values) > MAX_ABS)]
-                raise ArgumentError(field, f'implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')
+        _check('position', self.joints, self._q)
+        _check('velocity', self.joints, self._qd)
         return self._q, self._qd
+
+    def _positions(self, names, position):
+        """q of a state without velocities (read_fields), checked like a full state."""
+        index = self._index_for(names)
+        q = self._q
+        np.take(np.asarray(position, dtype=float), index, out=q)
+        if not sane(q.tolist()):
+            _check('position', self.joints, q)
+        return q, None
+
+
+def _check(field, joints, values):
+    """ArgumentError naming `field` and the joints when `values` (n,) holds a non-finite or implausible entry."""
+    if not np.isfinite(values).all():
+        bad = [f'{joints[i]!r}: {values[i]}' for i in np.flatnonzero(~np.isfinite(values))]
+        raise ArgumentError(field, f'not finite for {", ".join(bad)}')
+    if not plausible(values):
+        bad = [f'{joints[i]!r}: {values[i]:g}' for i in np.flatnonzero(np.abs(values) > MAX_ABS)]
+        raise ArgumentError(field, f'implausible magnitude (> {MAX_ABS:g}) for {", ".join(bad)}')

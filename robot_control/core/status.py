@@ -18,7 +18,8 @@ SATURATION_WARN_FRACTION = 0.01
 class Counters:
     """The node's own counts: commands sent, trajectories, target poses and wrenches accepted, rejected inputs
     per source (and
-    the last reason), the wall time of answering a state (ns), whether a wrench was ever measured."""
+    the last reason), the wall time of answering a state (ns), whether a wrench was ever measured, where the
+    last state's velocities came from."""
 
     sources: tuple
     commands_sent: int = 0
@@ -26,6 +27,7 @@ class Counters:
     target_poses_accepted: int = 0
     target_wrenches_accepted: int = 0
     last_rejection: str = ''
+    velocity_source: str = 'measured'    # the last state's qd: measured, or estimated from q (core.velocity)
     wrench_seen: bool = False
     tick_count: int = 0
     tick_total_ns: int = 0
@@ -121,6 +123,7 @@ def _law(name, core, counters):
              if servo is not None for g in ('kp', 'kv', 'ki')]
     return (f'{name}: control law', level, message,
             gains + [('law', cfg.law), ('force_axes', ','.join(cfg.force_axes)), ('integral', cfg.integral),
+             ('velocity', counters.velocity_source),
              ('fallbacks', core.fallbacks),
              ('contact_trips', guard.trips if guard is not None else 0),
              ('tick_mean_us', round(counters.tick_mean_us, 1)), ('tick_max_us', round(counters.tick_max_ns / 1e3, 1)),

@@ -9,8 +9,8 @@ state (t in s on its time line) and returns the torque as its command. One tick:
   2. start or restart the references when needed (first tick, after stop(), after time went back,
      after a switch to or from a law that does not track the joint reference);
   3. sample the references (robot_control.core.references), guard lost contact on the force axes;
-  4. the law's errors, then its integral (robot_control.laws.integral: clamp, anti-windup,
-     bumpless re-initialisation);
+  4. the law's errors, then its integral (robot_control.laws.integral: clamp, anti-windup, integration
+     at rest only when integral_rest_velocity is finite, bumpless re-initialisation);
   5. the law's torque, evaluated once; if it fails (a singular task Jacobian, a non-finite result)
      the gravity hold g(q) instead, counted in `fallbacks`; plus the friction compensation when on
      (robot_control.laws.friction_compensation);
@@ -43,6 +43,7 @@ from robot_control.core.contact import ContactGuard
 from robot_control.core.references import References
 from robot_control.core.tolerances import GoalMonitor
 from robot_control.laws import Integral, Reference, State
+from robot_control.laws.integral import moving
 from robot_control.laws.force import _spring_force
 from robot_control.laws.saturation import _saturate
 from robot_control.validation import ArgumentError
@@ -280,7 +281,7 @@ class ControllerCore:
         if law.tracks == 'joint' and self.goal.active:
             self._watch_goal(state, ref)
         self._err = err = law.errors(state, ref)
-        int_E, bumpless = self._integrate(err.E, dt)
+        int_E, bumpless = self._integrate(err, dt)
         tau, int_E = self._evaluate(state, ref, err, int_E)
         if self._cfg.friction_compensation is not None:
             tau = tau + self._cfg.friction_compensation.torque(state, ref)
@@ -319,7 +320,7 @@ class ControllerCore:
             self._refs.hold(state.t, state.q.copy())
             self._refs.sample(state.t, False)
 
-    def _integrate(self, E, dt):
+    def _integrate(self, err, dt):
         """(the integral the law uses this tick or None without integral action, True when it is to be
         re-initialised for a bumpless transfer once the law's torque at zero integral is known)."""
         integral = self._integral
@@ -333,17 +334,20 @@ class ControllerCore:
             integral.reset()
             self._reinit = False
         elif dt > 0.0:
-            integral._update(E, dt, self._hold(E))
+            integral._update(err.E, dt, self._hold(err))
         return integral.value, bumpless
 
-    def _hold(self, E):
-        """Integral entries frozen this tick: all while contact is lost, else the law's choice after a
-        saturated tick (self._sat and self._tau are still the last tick's)."""
+    def _hold(self, err):
+        """Integral entries frozen this tick: all while contact is lost, else those not at rest
+        (robot_control.laws.integral.moving) and the law's choice after a saturated tick (self._sat and
+        self._tau are still the last tick's)."""
         if self._guard is not None and self._guard.active:
             return np.ones(self._integral.n, dtype=bool)
+        held = moving(err.Ed, self._cfg.integral_rest_velocity)
         if not self._sat_any:
-            return None
-        return self._cfg.control_law.freeze(E, self._sat, self._tau)
+            return held
+        frozen = self._cfg.control_law.freeze(err.E, self._sat, self._tau)
+        return frozen if held is None else frozen | held
 
     def _reinitialise(self, state, ref, err, tau0):
         """Bumpless transfer: the integral whose torque tau0 + B int E is the last torque sent; that torque."""

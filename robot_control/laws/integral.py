@@ -15,11 +15,39 @@ affine in its integral, tau = tau0 + B int E with B = d tau / d int E (n, dim) g
 - bumpless transfer: after a configuration change the integral z solves B z = tau_sent - tau0 (least
   squares over the entries with ki > 0, then clamped), so that the new law's torque equals the last
   torque sent.
+
+Integration at rest (`moving`, the controller's integral_rest_velocity v_r): entry i integrates only
+while |Ed_i| <= v_r, i.e. while its error is at rest (holding a position: while the joint stands still).
+Why the integral hunts without it, on a joint with Coulomb friction F_c and stiction: at rest the joint
+is held by the friction while |tau - tau_needed| <= F_c, so a small error stays and the integral winds
+up while the joint sticks; it breaks away once the stored torque exceeds the friction, and while it
+slides the integral keeps winding on the error that remains; where the friction drops once the joint
+slides (stiction above the Coulomb level, as in real gears) or the loop is poorly damped, the stored
+torque carries the joint past the target, where it sticks again with the error reversed, and the cycle
+repeats the other way (a stick-slip limit cycle). With a rotor inertia I_a the law's model does not know (the armature), the
+integral is worse still: computed torque scales its servo by the model's M_ii, so the true loop is
+(M_ii + I_a) s^3 + M_ii kv s^2 + M_ii kp s + M_ii ki, unstable once (M_ii + I_a) ki > M_ii kp kv
+(Routh); on the iiwa's wrist (M_77 = 0.001 kg m^2, I_a = 0.1 kg m^2, kp, kv, ki = 108, 18, 216) the
+integral's oscillation grows until the friction and the joint's travel bound it (+-0.6 rad on joint 7
+with the typical friction, measured). Integrating only at rest keeps the one thing the integral is
+needed for at a hold, the torque that breaks a stuck joint free (it winds while the joint sticks, as
+before), and takes away both mechanisms: once the joint moves the integral holds its value, so no
+torque is stored during the slide to overshoot with, and the integral takes no part in a motion, which
+is what its unstable oscillation needs. The cost: no integral action while the error moves (a
+disturbance during a move is integrated only when the error comes to rest), so it is off (v_r = inf)
+unless set; v_r above the velocity noise (or with the estimated velocity,
+robot_control.core.velocity).
 """
 import numpy as np
 
 from robot_control import validation
 from robot_control.validation import ArgumentError
+
+
+def moving(Ed, rest_velocity):
+    """|Ed_i| > v_r, bool (len(Ed),): the entries whose error is moving, not integrated this tick (see the
+    module docstring); Ed in rad/s, m/s or N/s, v_r > 0 in the same units. None when v_r is inf (off)."""
+    return np.abs(Ed) > rest_velocity if rest_velocity < np.inf else None
 
 
 class Integral:

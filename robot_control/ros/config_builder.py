@@ -108,7 +108,8 @@ class ConfigBuilder:
         force = servo_gains(values, 'force_', k, design) if k else None
         config = ControllerConfig(
             model=model, law=values['law'], gains=motion, force_gains=force, integral=values['integral'],
-            integral_limit=values['integral_limit'], effort_limit=values['effort_limits'] or None,
+            integral_limit=values['integral_limit'], integral_rest_velocity=values['integral_rest_velocity'],
+            effort_limit=values['effort_limits'] or None,
             joints=values['joints'] or None, force_axes=values['force_axes'],
             k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
             force_lead_time=values['force_lead_time'], posture_gains=(values['posture_kp'], values['posture_kv']),
@@ -119,7 +120,8 @@ class ConfigBuilder:
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
             control_period=values['control_period'],
             law_params={row.name: values[row.name] for row in law.param_rows},
-            friction_compensation=friction_compensation.values_of(values))
+            friction_compensation=friction_compensation.values_of(values),
+            velocity_cutoff_hz=values['velocity_filter.cutoff_hz'])
         q_d = values['q_d']
         if q_d and len(q_d) != model.n:
             raise ParameterError('q_d', f'expected empty or {model.n} values (one per joint), got {len(q_d)}')

@@ -18,6 +18,7 @@ import math
 
 from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
+from robot_control.core import velocity
 from robot_control.core.config import FORCE_FEEDBACK
 from robot_control.laws import LAWS
 from robot_control.laws import friction_compensation
@@ -174,6 +175,13 @@ def servo_rows():
         Row('integral_limit', 'double', math.inf,
             'clamp of |integral of the error| per entry: rad s, m s (joints/motion) or N s (force); .inf = no clamp',
             [gt(0)], inf=True),
+        Row('integral_rest_velocity', 'double', math.inf,
+            'integrate an entry only while its error is at rest, |Ed| <= this: rad/s, m/s (joints/motion) or N/s '
+            '(force); stops the integral hunting under friction (the integral only breaks a stuck joint free); '
+            '.inf = always integrate', [gt(0)], inf=True),
+        Row('velocity_filter.cutoff_hz', 'double', 0.0, 'cutoff f_c of the joint velocities estimated from the '
+            'positions (first-order low-pass differentiator, Tustin), Hz; 0 = the joint_states velocities (a state '
+            f'without velocities: estimated with f_c = {velocity.DEFAULT_CUTOFF_HZ:g} Hz)', [gt_eq(0)]),
         Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
             '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
         Row('control_period', 'double', 0.001, 'period of the joint_states the controller answers (the '

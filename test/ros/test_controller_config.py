@@ -39,6 +39,19 @@ def test_the_model_is_kept_while_its_parameters_do_not_change():
     assert heavier.model is not first.model and heavier.model.m == 3.0
 
 
+def test_the_velocity_filter_and_integration_at_rest_reach_the_config_in_their_units():
+    """velocity_filter.cutoff_hz (Hz, 0 = the message's velocities), integral_rest_velocity (rad/s, .inf = off)."""
+    default = ConfigBuilder()(_values(scenario='polar_two_link'))
+    assert default.velocity_cutoff_hz == 0.0 and default.integral_rest_velocity == np.inf
+    cfg = ConfigBuilder()(_values(scenario='polar_two_link', integral_rest_velocity=0.01,
+                                  **{'velocity_filter.cutoff_hz': 50.0}))
+    assert cfg.velocity_cutoff_hz == 50.0 and cfg.integral_rest_velocity == 0.01
+    for name, value in (('velocity_filter.cutoff_hz', -1.0), ('integral_rest_velocity', 0.0)):
+        with pytest.raises(ParameterError) as err:
+            _values(scenario='polar_two_link', **{name: value})
+        assert err.value.name == name
+
+
 def test_independent_joint_designs_torque_gains_from_the_inertia_at_the_scenario_start():
     cfg = ConfigBuilder()(_values(scenario='polar_two_link', law='independent_joint'))
     model = make_model('polar_two_link', m=2.0, gravity=9.8)

@@ -680,7 +680,7 @@ def _bad_states():
         'duplicate': dict(good, names=['theta1', 'r', 'r'], position=[0.1, 0.5, 0.5], velocity=[0.0] * 3,
                           reason="name: duplicate joint 'r'"),
         'short position': dict(good, position=[0.1], reason='position: expected one entry per name'),
-        'no velocity': dict(good, velocity=[], reason='velocity: expected one entry per name'),
+        'short velocity': dict(good, velocity=[0.0], reason='velocity: expected one entry per name (2) or none'),
         'nan': dict(good, position=[math.nan, 0.5], reason="position: not finite for 'theta1': nan"),
         'inf': dict(good, velocity=[0.0, -math.inf], reason="velocity: not finite for 'r': -inf"),
     }
@@ -704,6 +704,22 @@ def test_rejected_state_gets_no_command_and_a_counted_diagnostic(ros_context, ca
         assert spin_until(ex, counted)
         level, message, values = _status(robot, 'rejected inputs')
         assert bad['reason'] in values['last_reason']
+
+
+def test_a_state_without_velocities_is_answered_with_the_estimate(ros_context):
+    """A driver that sends no velocities: the node answers with qd estimated from the positions (at rest: the
+    torque of qd = 0) and /diagnostics names the estimate."""
+    with rig(ros_context, **POLAR) as (ex, ctrl, robot):
+        q = [0.1, 0.5]
+        for k in range(3):
+            cmd, _, _ = robot.step(ex, POLAR_JOINTS, q, [], T0_NS + k * DT_NS)
+        gains = design(1.0, 12.0).gains(2)
+        want = computed_torque(make_model('polar_two_link', m=2.0, gravity=9.8), np.array(q), np.zeros(2),
+                               np.array(q), np.zeros(2), np.zeros(2), gains)
+        np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12)
+        assert ctrl.rejected['joint_states'] == 0
+        assert spin_until(ex, lambda: (_status(robot, 'control law') or ('', '', {}))[2].get('velocity', '')
+                          .startswith('estimated: first-order low-pass differentiator, Tustin, f_c = 50 Hz'))
 
 
 def test_nothing_above_the_effort_limits_or_non_finite_is_published(ros_context):
