@@ -6,14 +6,13 @@ computed torque with the payload known (kp = lambda^2, kv = 2 lambda) minus C s.
 
 In process, the controller core against sim_bridge.world.World (PyBullet, 1 kHz) carrying 2 kg 5 cm out on
 the iiwa's flange, unknown to the controller's model: a 0.5 rad quintic move of every joint in 2 s, out and
-back, three times (12 s). Measured (default parameters): tracking RMS per repetition 9.2e-3, 4.3e-4, 3.8e-4 rad
+back, three times (12 s; dev/adaptive_payload.py, which draws docs/figures/adaptive/adaptive_mass.png). Measured (default parameters): tracking RMS per repetition 9.2e-3, 4.3e-4, 3.8e-4 rad
 against 7.2e-5, 7.6e-5, 7.6e-5 for computed torque with the payload known and 0.24 rad with it unknown;
 the mass estimate 1.9998, 2.00000, 2.00004 kg at the ends of the repetitions.
 """
 import numpy as np
 import pytest
 
-from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import ServoGains
@@ -25,11 +24,8 @@ from robot_control.param_table import ParameterError
 from robot_control.ros import controller_params as params
 from robot_control.ros.config_builder import ConfigBuilder
 from robot_control.validation import ArgumentError
-from sim_bridge.world import World
+from dev.adaptive_payload import DT, GAINS, MOVE, PAYLOAD, known_model, rms_per_repetition, run_iiwa
 
-DT = 0.001
-PAYLOAD = (2.0, (0.0, 0.0, 0.05))       # kg, m in the tip frame
-MOVE, REPETITIONS, DELTA = 2.0, 3, 0.5  # s per move, out-and-back repetitions, rad per joint
 RNG = np.random.default_rng(20261126)
 
 
@@ -40,8 +36,7 @@ def iiwa():
 
 @pytest.fixture(scope='module')
 def known():
-    sc = scenarios.get('iiwa')
-    return make_model('urdf', urdf=sc.urdf, joints=sc.joints, tip=sc.tip, payload=PAYLOAD)
+    return known_model()
 
 
 def _vectors(k, scale=1.0):
@@ -117,29 +112,6 @@ def test_the_projection_lands_in_omega_and_comes_no_farther_from_any_point_of_it
     assert err.value.name == 'gamma'
 
 
-def run_iiwa(config, repetitions=REPETITIONS):
-    """The controller core on the simulated iiwa carrying PAYLOAD, moving every joint DELTA out and back in
-    MOVE s each, `repetitions` times: (errors E per tick (k, 7), the law's estimate per tick (k, 10) or None)."""
-    with World('iiwa', dt=DT, payload=PAYLOAD) as world:
-        q0 = world.state()[0].copy()
-        core, law = ControllerCore(config), config.control_law
-        errors, estimates = [], []
-        per_move = int(round(MOVE / DT))
-        for k in range(2 * repetitions * per_move):
-            if k % per_move == 0:
-                core.set_goal(q0 + DELTA if (k // per_move) % 2 == 0 else q0, MOVE)
-            q, qd, _ = world.state()
-            world.set_torque(core.update(k * DT, q, qd))
-            errors.append(core.error[0].copy())
-            estimates.append(getattr(law, 'theta', np.zeros(10)).copy())
-            world.step(1)
-        return np.array(errors), np.array(estimates)
-
-
-def rms_per_repetition(errors):
-    return np.sqrt((errors.reshape(-1, int(round(2 * MOVE / DT)), 7) ** 2).mean(axis=(1, 2)))
-
-
 @pytest.fixture(scope='module')
 def adaptive_run(iiwa):
     return run_iiwa(ControllerConfig(iiwa, law='adaptive_computed_torque'))
@@ -150,11 +122,10 @@ def test_the_third_repetition_tracks_near_computed_torque_with_the_payload_known
     (checked < 10x) and 0.24 rad with it unknown; each repetition better than the one before."""
     errors, _ = adaptive_run
     adaptive = rms_per_repetition(errors)
-    gains = ServoGains(np.full(7, 36.0), np.full(7, 12.0), np.zeros(7))     # lambda = 6: kp = 36, kv = 12
-    ct_known = rms_per_repetition(run_iiwa(ControllerConfig(known, gains=gains))[0])
+    ct_known = rms_per_repetition(run_iiwa(ControllerConfig(known, gains=GAINS))[0])
     assert adaptive[2] < 10 * ct_known[2], (adaptive, ct_known)
     assert adaptive[2] < adaptive[1] < adaptive[0] / 10, adaptive
-    ct_unknown = rms_per_repetition(run_iiwa(ControllerConfig(iiwa, gains=gains), repetitions=1)[0])
+    ct_unknown = rms_per_repetition(run_iiwa(ControllerConfig(iiwa, gains=GAINS), repetitions=1)[0])
     assert adaptive[2] < ct_unknown[0] / 100, (adaptive, ct_unknown)
 
 
