@@ -43,6 +43,7 @@ one (a restart after the watchdog) or before it does not integrate.
 """
 import dataclasses
 import functools
+import math
 
 import numpy as np
 
@@ -57,7 +58,8 @@ MAX_ADAPTATION_STEP = 0.1
 #: entries of theta: the mass, the first moment m c (3), the rotational inertia (6, Pinocchio's order
 #: Ixx, Ixy, Iyy, Ixz, Iyz, Izz)
 MASS, FIRST_MOMENT, INERTIA = slice(0, 1), slice(1, 4), slice(4, 10)
-_DIAGONAL = np.array([True, False, True, False, False, True])     # Ixx, Iyy, Izz among the six
+#: the rotational inertia's bounds over mass_max com_max^2: [0, 1] on Ixx, Iyy, Izz, [-1/2, 1/2] off the diagonal
+_INERTIA_LOWER, _INERTIA_UPPER = np.array([0.0, -0.5, 0.0, -0.5, -0.5, 0.0]), np.array([1.0, 0.5, 1.0, 0.5, 0.5, 1.0])
 
 
 def _reference_motion(E, Ed, qd_d, qdd_d, lam):
@@ -94,7 +96,7 @@ def _project(theta, gamma, mass_max, com_max):
     out[MASS], out[FIRST_MOMENT] = _project_on_cone(theta[0], theta[FIRST_MOMENT], gamma[0], gamma[1],
                                                     mass_max, com_max)
     bound = mass_max * com_max ** 2
-    out[INERTIA] = np.clip(theta[INERTIA], np.where(_DIAGONAL, 0.0, -bound / 2), np.where(_DIAGONAL, bound, bound / 2))
+    out[INERTIA] = np.clip(theta[INERTIA], bound * _INERTIA_LOWER, bound * _INERTIA_UPPER)
     return out
 
 
@@ -105,9 +107,9 @@ def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
     b = com_max sqrt(gamma_m / gamma_h), cut at x_max: the point itself inside; the apex when it lies in
     the polar cone (b |y| <= -x); else the ray (t, b t y / |y|), t = (x + b |y|) / (1 + b^2). A point beyond
     x_max goes to the disk |y| <= b x_max at x_max."""
-    rm, rh = np.sqrt(gamma_m), np.sqrt(gamma_h)
+    rm, rh = math.sqrt(gamma_m), math.sqrt(gamma_h)
     x, y, b, x_max = m / rm, h / rh, com_max * rm / rh, mass_max / rm
-    r = float(np.linalg.norm(y))
+    r = math.sqrt(y @ y)
     if r > b * x:
         if b * r <= -x:
             x, y = 0.0, np.zeros(3)
@@ -116,7 +118,7 @@ def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
             y = y * (b * x / r)
     if x > x_max:
         x = x_max
-        r = float(np.linalg.norm(y))
+        r = math.sqrt(y @ y)
         y = y * min(1.0, b * x_max / r) if r > 0.0 else y
     return x * rm, y * rh
 
