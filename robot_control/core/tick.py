@@ -161,6 +161,7 @@ class ControllerCore:
             self._refs.set_force_axes(len(config.force_axes))
         self._refs.move_time, self._refs.force_ramp_time = config.move_time, config.force_ramp_time
         self._guard = contact_guard(config)
+        config.control_law.continue_from(old.control_law)
         self._cfg = config
         if self.active:
             self._reinit = self._reinit or config.law_key() != old.law_key()

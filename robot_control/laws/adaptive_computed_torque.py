@@ -38,8 +38,9 @@ Gamma^-1 (Gamma = diag(gamma_m, gamma_h I3, gamma_I I6)), where for the true the
 is no farther from theta than the unprojected step: V does not grow by it, and V_dot <= -s^T K_D s still holds.
 
 theta_hat is integrated by explicit Euler between the law's ticks, from its time: the law holds the
-estimate (a new configuration starts again from 0); a tick more than MAX_ADAPTATION_STEP after the last
-one (a restart after the watchdog) or before it does not integrate.
+estimate, and a new configuration of this law on the same model takes it over (continue_from; another
+model or law starts again from 0); a tick more than MAX_ADAPTATION_STEP after the last one (a restart
+after the watchdog) or before it does not integrate.
 """
 import dataclasses
 import functools
@@ -237,6 +238,12 @@ class AdaptiveComputedTorque(Law):
         """(mass kg, centre of mass (3,) m in the tip frame) of the estimate; the centre is 0 without mass."""
         m = float(self.theta[0])
         return m, (self.theta[FIRST_MOMENT] / m if m > 0.0 else np.zeros(3))
+
+    def continue_from(self, old):
+        """The estimate of the same law on the same model goes on (projected on this law's bounds)."""
+        if isinstance(old, AdaptiveComputedTorque) and old.model is self.model:
+            self.theta = _project(old.theta, self.gamma, self.mass_max, self.com_max)
+            self._t, self._Y, self._s = old._t, old._Y, old._s
 
     def torque(self, state, ref, err, int_E):
         self._adapt(state.t)

@@ -188,3 +188,26 @@ def test_a_tick_after_a_long_gap_does_not_integrate(iiwa):
     next_ = State(1.001, q, qd)
     law.torque(next_, ref, law.errors(next_, ref), None)
     assert np.abs(law.theta).max() > 0.0
+
+
+def test_a_new_configuration_takes_the_estimate_over_on_the_same_model(iiwa, known):
+    """The core hands the new law the old one: a set of adaptive_lambda keeps the estimate (projected on the
+    new bounds); another model starts again from zero."""
+    config = ControllerConfig(iiwa, law='adaptive_computed_torque')
+    core = ControllerCore(config)
+    q, qd = np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0]), np.full(7, 0.3)
+    for k in range(20):
+        core.update(k * DT, q, qd)
+    learned = config.control_law.theta.copy()
+    assert np.abs(learned).max() > 0.0
+    faster = config.replace(law_params={'adaptive_lambda': 8.0})
+    core.configure(faster)
+    np.testing.assert_array_equal(faster.control_law.theta, learned)
+    core.update(20 * DT, q, qd)                      # and goes on integrating from the last tick
+    assert not np.array_equal(faster.control_law.theta, learned)
+    small = faster.replace(law_params={'adaptive_mass_max': 1e-3})
+    core.configure(small)
+    assert 0.0 <= small.control_law.theta[0] <= 1e-3
+    other = ControllerConfig(known, law='adaptive_computed_torque')
+    core.configure(other)
+    np.testing.assert_array_equal(other.control_law.theta, np.zeros(10))
