@@ -15,8 +15,10 @@ ten inertial parameters theta (mass m kg; first moment m c, kg m, c the centre o
 the rotational inertia about the tip frame's origin, kg m^2: robot_control.models.urdf_model.UrdfModel
 .tip_regressor). theta_hat is that body's estimate, beyond what the model already holds: 0 = the model
 as configured. Lambda = lambda I (1/s); K_D = diag(kd) (N m s/rad), or designed each tick as
-K_D,i = lambda M_ii(q): on a decoupled joint with a right estimate, M Edd + (K_D + M Lambda) Ed + K_D Lambda E = 0
-is critically damped at lambda rad/s, the computed-torque servo's kp = lambda^2, kv = 2 lambda.
+K_D = lambda M_hat(q), M_hat = M0 + M_theta_hat the model's inertia with the estimate's: then
+tau = M_hat v + C_hat qr_d + g_hat with v = qdd_d + 2 lambda Ed + lambda^2 E, computed torque's servo
+(kp = lambda^2, kv = 2 lambda) on the estimated model, C qr_d in place of C qd: with a right estimate the
+error equation is computed torque's, critically damped at lambda rad/s (up to C s).
 
 Stability (J.-J. E. Slotine and W. Li, "On the adaptive control of robot manipulators", The International
 Journal of Robotics Research 6(3), 1987): with the error theta~ = theta_hat - theta,
@@ -36,6 +38,9 @@ which holds every body of mass <= mass_max within com_max of the tip frame's ori
 the centre of mass within com_max and every parameter bounded. theta_hat is projected in the metric of
 Gamma^-1 (Gamma = diag(gamma_m, gamma_h I3, gamma_I I6)), where for the true theta in Omega the projection
 is no farther from theta than the unprojected step: V does not grow by it, and V_dot <= -s^T K_D s still holds.
+The argument needs K_D positive definite: always with kd > 0; with the designed K_D = lambda M_hat when the
+estimate's spatial inertia is positive semi-definite (any physical body), which Omega does not enforce
+(an estimate with a negative inertia about its centre of mass could make M_hat indefinite).
 
 theta_hat is integrated by explicit Euler between the law's ticks, from its time: the law holds the
 estimate, and a new configuration of this law on the same model takes it over (continue_from; another
