@@ -135,7 +135,7 @@ def adaptive_computed_torque(model, q, qd, q_d, qd_d, qdd_d, theta, lam, kd=None
 
     model: a URDF model with a tip (UrdfModel); vectors (n,) SI; theta (10,) the inertial parameters of a
     body carried by the tip (m kg, m c kg m, inertia kg m^2 about the tip frame's origin); lam > 0, 1/s;
-    kd: N m s/rad per joint (one value or (n,)), None = lam M_ii(q). ArgumentError naming the bad argument."""
+    kd: N m s/rad per joint (one value or (n,)), None = lam M_hat(q) (M(q) with theta's inertia). ArgumentError naming the bad argument."""
     _check_model(model)
     q, qd, q_d, qd_d, qdd_d = validation.vectors(model.n, q=q, qd=qd, q_d=q_d, qd_d=qd_d, qdd_d=qdd_d)
     theta = validation.vector('theta', theta, 10)
@@ -183,7 +183,7 @@ PARAM_ROWS = (
         's = -(Ed + Lambda E); with the designed kd the error equation is critically damped at lambda rad/s',
         [gt(0)]),
     Row('adaptive_kd', 'double_array', (), 'adaptive_computed_torque: K_D per joint, N m s/rad (N s/m); empty = '
-        'designed each tick as lambda M_ii(q)', [custom(_PER_JOINT), gt_eq(0)]),
+        "designed each tick as lambda M_hat(q), the model's inertia matrix with the estimate's", [custom(_PER_JOINT), gt_eq(0)]),
     Row('adaptive_mass_max', 'double', 10.0, 'adaptive_computed_torque: the largest payload mass the estimate may '
         'reach, kg (it stays >= 0)', [gt(0)]),
     Row('adaptive_com_max', 'double', 0.3, "adaptive_computed_torque: the payload's centre of mass lies within this "
