@@ -150,8 +150,7 @@ class ControllerCore:
         self._state = self._ref = self._err = self._f_meas = None   # the last tick's State, Reference, Errors, f_meas
         self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
         self._sat_any = self._has_prev = False   # _has_prev: self._tau holds a torque sent (bumpless transfer)
-        self._t = None
-        self.active = self._reinit = self._restart = False
+        self._t, self.active, self._reinit, self._restart = None, False, False, False
         self.ticks = self.saturated_ticks = self.fallbacks = self.restarts = 0
         self.saturation_counts = np.zeros(n, dtype=np.int64)
         self.last_fallback = ''
@@ -176,6 +175,7 @@ class ControllerCore:
             self._refs.set_force_axes(len(config.force_axes))
         self._refs.move_time, self._refs.force_ramp_time = config.move_time, config.force_ramp_time
         self._guard = contact_guard(config)
+        config.control_law.continue_from(old.control_law)
         self._cfg = config
         if self.active:
             self._reinit = self._reinit or config.law_key() != old.law_key()

@@ -5,10 +5,12 @@ computed_torque: tau = M v + C qd + g.  independent_joint: tau = Kp E + Kv Ed + 
 force_1dof: tau = m v + f.  hybrid: hybrid position/force control in operational space.
 gravity_compensation: tau = g(q).  impedance: Cartesian impedance in operational space.  saturate: clip to the effort limits, with the saturated mask.
 joint_impedance: tau = M qdd_d + C qd + g + K E + D Ed (+ Ki int E), K in N m/rad.
+adaptive_computed_torque: Slotine-Li, tau = M qr_dd + C qr_d + g + Y theta_hat - K_D s, the tip's payload estimated.
 
 LAWS is the registry the controller core and the tools ask: law name -> Law class (laws.base).
 A new law is one module with its equation and its Law class, and one entry here.
 """
+from robot_control.laws.adaptive_computed_torque import AdaptiveComputedTorque, adaptive_computed_torque
 from robot_control.laws.base import Errors, Law, Reference, State
 from robot_control.laws.computed_torque import ComputedTorque, computed_torque
 from robot_control.laws.force import Force, force_1dof, spring_force
@@ -25,7 +27,7 @@ from robot_control.validation import ArgumentError
 
 #: law name -> Law class, in the order the parameter table lists them
 LAWS = {law.name: law for law in (ComputedTorque, IndependentJoint, Force, Hybrid, GravityCompensation, Impedance,
-                                  JointImpedance)}
+                                  JointImpedance, AdaptiveComputedTorque)}
 
 
 def law_class(name):
@@ -38,4 +40,5 @@ def law_class(name):
 
 __all__ = ['LAWS', 'Law', 'State', 'Reference', 'Errors', 'law_class', 'Integral', 'servo', 'computed_torque', 'independent_joint',
            'force_1dof', 'spring_force', 'hybrid', 'hybrid_error', 'hybrid_servo', 'operational_space',
-           'posture_acceleration', 'gravity_compensation', 'impedance', 'joint_impedance', 'saturate']
+           'posture_acceleration', 'gravity_compensation', 'impedance', 'joint_impedance', 'adaptive_computed_torque',
+           'saturate']

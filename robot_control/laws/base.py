@@ -159,6 +159,9 @@ class Law:
         """B = d tau / d int E, (n, integral_dim), at this tick: tau = tau(int_E = 0) + B int_E."""
         raise NotImplementedError
 
+    def continue_from(self, old):
+        """Take over what the Law `old`, the one before a new configuration, learned (none by default)."""
+
     def freeze(self, E, saturated, tau):
         """Anti-windup by conditional integration: the integral entries to hold this tick, given this tick's
         error E, the joints saturated on the last tick (bool (n,)) and its torque tau (n,). Joint-space laws

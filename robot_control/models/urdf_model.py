@@ -292,6 +292,32 @@ class UrdfModel(RobotModel):
         xdd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         return x, xd, xdd
 
+    def _tip_regressor(self, q, qd, qr_d, qr_dd, x=None):
+        """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
+        Y pi with pi its inertial parameters in the tip frame (pinocchio.Inertia.toDynamicParameters:
+        m; m c; Ixx, Ixy, Iyy, Ixz, Iyz, Izz about the frame's origin). C is Pinocchio's (Mdot - 2C
+        skew, computeCoriolisMatrix), so Y is Slotine and Li's regressor: with qr = qd it is the
+        body's share of the inverse dynamics. In the tip frame, J its Jacobian, Jdot J's rate and
+        a_g the gravity (spatial vectors, world quantities carried to the tip frame at q):
+        v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g, and Y = J^T Y_b(v, v_r, a_r)
+        (_slotine_li_body_regressor). With x (n,): (Y, Y_x), Y_x pi = the body's share of M(q) x,
+        Y_x = J^T A(J x) (A: the body regressor of an acceleration alone)."""
+        model, data, fid = self.model, self._data, self.frame_id
+        pin.computeJointJacobiansTimeVariation(model, data, self._map.q(q), self._map.v(qd))
+        joint = model.frames[fid].parentJoint
+        to_tip = pin.updateFramePlacement(model, data, fid).toActionMatrixInverse()    # world -> tip frame
+        J = to_tip @ self._columns(pin.getJointJacobian(model, data, joint, pin.WORLD))
+        Jdot = to_tip @ self._columns(pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD))
+        a_r = J @ qr_dd + Jdot @ qr_d - to_tip @ model.gravity.vector
+        Y = J.T @ _slotine_li_body_regressor(J @ qd, J @ qr_d, a_r)
+        return Y if x is None else (Y, J.T @ _body_regressor(J @ x))
+
+    def tip_regressor(self, q, qd, qr_d, qr_dd):
+        """_tip_regressor, checked: q, qd, qr_d, qr_dd (n,) rad, rad/s, rad/s^2 -> Y (n, 10); ArgumentError
+        naming the bad argument; NotImplementedError without a tip (as fk)."""
+        self._check_task()
+        return self._tip_regressor(*validation.vectors(self.n, q=q, qd=qd, qr_d=qr_d, qr_dd=qr_dd))
+
     def _task_difference(self, x_d, x):
         """x_d - x on the position axes; log3(R_d R^T) on the orientation axes (world axes, rad)."""
         if self.task_space == 'position':
@@ -340,6 +366,37 @@ class UrdfModel(RobotModel):
     def __repr__(self):
         return (f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r}, '
                 f'task_space={self.task_space!r})')
+
+
+def _body_regressor(a):
+    """A(a) (6, 10): the wrench I a = A(a) pi of a body's spatial inertia I on a spatial vector a (6,), linear in
+    its inertial parameters pi and in a: sum_i a_i A(e_i), A(e_i) = pinocchio.bodyRegressor(0, e_i)."""
+    return (a @ _BODY_REGRESSOR_BASIS).reshape(6, 10)
+
+
+def _slotine_li_body_regressor(v, v_r, a_r):
+    """Y_b (6, 10): the wrench I a_r + 1/2 (v x* I v_r - I (v x v_r) + v_r x* I v) = Y_b pi of one body,
+    linear in its inertial parameters pi, bilinear in its velocity v and the reference's v_r, with a_r
+    the reference's acceleration (spatial vectors (6,), one frame, where pi is given). With v_r = v it is
+    the Newton-Euler wrench I a + v x* I v; the 1/2 terms are Pinocchio's Coriolis matrix of one body,
+    the split of v x* I v that makes Mdot - 2C skew (Slotine and Li's requirement). A: _body_regressor."""
+    v_m, v_r_m = pin.Motion(v), pin.Motion(v_r)
+    A_a, A_v_r, A_v, A_cross = (np.array((a_r, v_r, v, v_m.cross(v_r_m).vector)) @ _BODY_REGRESSOR_BASIS).reshape(4, 6, 10)
+    return A_a + 0.5 * (v_m.dualAction @ A_v_r - A_cross + v_r_m.dualAction @ A_v)
+
+
+#: A(e_i) (6, 6 x 10), row i: the body regressor I x = A(x) pi of the unit spatial vector x = e_i, flattened
+_BODY_REGRESSOR_BASIS = np.stack([pin.bodyRegressor(pin.Motion.Zero(), pin.Motion(e)).ravel() for e in np.eye(6)])
+
+
+def payload_parameters(mass, com):
+    """The inertial parameters pi (10,) of the payload robot_control.urdf.with_payload adds: a solid sphere of
+    `mass` kg (radius PAYLOAD_RADIUS) centred at `com` (3,) m in the tip frame, in the order of
+    UrdfModel.tip_regressor (m; m c; the rotational inertia about the tip frame's origin, kg m^2)."""
+    mass = validation.scalar('payload.mass', mass, nonnegative=True)
+    com = validation.vector('payload.com', com, 3)
+    inertia = np.eye(3) * 0.4 * mass * urdf_files.PAYLOAD_RADIUS ** 2
+    return pin.Inertia(mass, com, inertia).toDynamicParameters()
 
 
 def _limit(values):

@@ -24,7 +24,7 @@ MS = 1_000_000
 # -- the registry ----------------------------------------------------------------------------------
 def test_the_registry_names_every_law_and_each_says_what_it_needs():
     assert list(LAWS) == ['computed_torque', 'independent_joint', 'force', 'hybrid', 'gravity_compensation',
-                          'impedance', 'joint_impedance']
+                          'impedance', 'joint_impedance', 'adaptive_computed_torque']
     for name, law in LAWS.items():
         assert law.name == name and issubclass(law, Law)
         assert law.tracks in ('joint', 'task', None)

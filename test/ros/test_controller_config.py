@@ -18,7 +18,8 @@ def _values(**changes):
 @pytest.mark.parametrize('law', sorted(LAWS))
 def test_every_law_builds_from_its_scenario_with_designed_gains(law):
     """Each registered law, on a scenario it fits, gets as many motion gains as it asks for."""
-    scenario = {'force': 'force_1dof', 'hybrid': 'hybrid_cartesian_xy'}.get(law, 'polar_two_link')
+    scenario = {'force': 'force_1dof', 'hybrid': 'hybrid_cartesian_xy', 'adaptive_computed_torque': 'iiwa'}.get(
+        law, 'polar_two_link')
     cfg = ConfigBuilder()(_values(scenario=scenario, law=law))
     sizes = LAWS[law].servo_sizes(cfg.model, cfg.force_axes)
     assert (cfg.gains is None) == (not sizes) and (not sizes or cfg.gains.n == sizes[0])

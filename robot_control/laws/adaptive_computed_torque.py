@@ -1,0 +1,266 @@
+"""Adaptive computed torque: Slotine and Li's adaptive control, estimating what the tip carries on line.
+
+With E = q_d - q, Ed = qd_d - qd, the reference velocity and the sliding variable
+
+    qr_d = qd_d + Lambda E,   qr_dd = qdd_d + Lambda Ed,   s = qd - qr_d = -(Ed + Lambda E),
+
+the torque and the adaptation are
+
+    tau = M0(q) qr_dd + C0(q, qd) qr_d + g0(q) + Y(q, qd, qr_d, qr_dd) theta_hat - K_D s,
+    theta_hat_dot = -Gamma Y^T s   (then projected on Omega, below).
+
+M0, C0, g0 are the robot's model as configured (with C0 the Coriolis matrix for which Mdot - 2C is skew:
+Pinocchio's); Y theta is the share of a body carried by the tip in M qr_dd + C qr_d + g, linear in its
+ten inertial parameters theta (mass m kg; first moment m c, kg m, c the centre of mass in the tip frame;
+the rotational inertia about the tip frame's origin, kg m^2: robot_control.models.urdf_model.UrdfModel
+.tip_regressor). theta_hat is that body's estimate, beyond what the model already holds: 0 = the model
+as configured. Lambda = lambda I (1/s); K_D = diag(kd) (N m s/rad), or designed each tick as
+K_D = lambda M_hat(q), M_hat = M0 + M_theta_hat the model's inertia with the estimate's: then
+tau = M_hat v + C_hat qr_d + g_hat with v = qdd_d + 2 lambda Ed + lambda^2 E, computed torque's servo
+(kp = lambda^2, kv = 2 lambda) on the estimated model, C qr_d in place of C qd: with a right estimate the
+error equation is computed torque's, critically damped at lambda rad/s (up to C s).
+
+Stability (J.-J. E. Slotine and W. Li, "On the adaptive control of robot manipulators", The International
+Journal of Robotics Research 6(3), 1987): with the error theta~ = theta_hat - theta,
+
+    V = 1/2 s^T M s + 1/2 theta~^T Gamma^-1 theta~,
+    V_dot = s^T (M s_dot + 1/2 Mdot s) + theta~^T Gamma^-1 theta_hat_dot
+          = s^T (Y theta~ - K_D s) + 1/2 s^T (Mdot - 2C) s + theta~^T Gamma^-1 theta_hat_dot = -s^T K_D s,
+
+since M s_dot + C s = tau - (M qr_dd + C qr_d + g) = Y theta~ - K_D s and Mdot - 2C is skew. So s and
+theta~ stay bounded, s -> 0 (Barbalat) and with it E, Ed -> 0; theta_hat need not reach theta unless the
+motion excites every parameter. The projection: theta_hat is kept in the convex set
+
+    Omega = {0 <= m <= mass_max, |m c| <= com_max m, each rotational inertia entry in
+             [0, mass_max com_max^2] (diagonal) or [-mass_max com_max^2 / 2, ...] (off-diagonal)},
+
+which holds every body of mass <= mass_max within com_max of the tip frame's origin: the mass stays >= 0,
+the centre of mass within com_max and every parameter bounded. theta_hat is projected in the metric of
+Gamma^-1 (Gamma = diag(gamma_m, gamma_h I3, gamma_I I6)), where for the true theta in Omega the projection
+is no farther from theta than the unprojected step: V does not grow by it, and V_dot <= -s^T K_D s still holds.
+The argument needs K_D positive definite: always with kd > 0; with the designed K_D = lambda M_hat when the
+estimate's spatial inertia is positive semi-definite (any physical body), which Omega does not enforce
+(an estimate with a negative inertia about its centre of mass could make M_hat indefinite).
+
+theta_hat is integrated by explicit Euler between the law's ticks, from its time: the law holds the
+estimate, and a new configuration of this law on the same model takes it over (continue_from; another
+model or law starts again from 0); a tick more than MAX_ADAPTATION_STEP after the last one (a restart
+after the watchdog) or before it does not integrate.
+"""
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from robot_control import validation
+from robot_control.laws.base import Law
+from robot_control.laws.joint_impedance import per_joint
+from robot_control.param_table import Row, custom, gt, gt_eq
+from robot_control.validation import ArgumentError
+
+#: the longest step, s, over which the estimate is integrated (a longer gap between ticks is not)
+MAX_ADAPTATION_STEP = 0.1
+#: entries of theta: the mass, the first moment m c (3), the rotational inertia (6, Pinocchio's order
+#: Ixx, Ixy, Iyy, Ixz, Iyz, Izz)
+MASS, FIRST_MOMENT, INERTIA = slice(0, 1), slice(1, 4), slice(4, 10)
+#: the rotational inertia's bounds over mass_max com_max^2: [0, 1] on Ixx, Iyy, Izz, [-1/2, 1/2] off the diagonal
+_INERTIA_LOWER, _INERTIA_UPPER = np.array([0.0, -0.5, 0.0, -0.5, -0.5, 0.0]), np.array([1.0, 0.5, 1.0, 0.5, 0.5, 1.0])
+
+
+def _reference_motion(E, Ed, qd_d, qdd_d, lam):
+    """(qr_d, qr_dd) = (qd_d + Lambda E, qdd_d + Lambda Ed), (n,) each; Lambda = lam I, 1/s."""
+    return qd_d + lam * E, qdd_d + lam * Ed
+
+
+def _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd=None):
+    """(tau, Y, s): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, s = qd - qr_d, with
+    Y = model._tip_regressor(q, qd, qr_d, qr_dd) (n, 10); K_D = diag(kd), or when kd is None designed as
+    K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's (Y_s theta = M_theta s).
+    Checked arrays (n,), theta (10,)."""
+    s = qd - qr_d
+    M = model._M(q)
+    if kd is None:
+        Y, Y_s = model._tip_regressor(q, qd, qr_d, qr_dd, s)
+        K_D_s = lam * (M @ s + Y_s @ theta)
+    else:
+        Y, K_D_s = model._tip_regressor(q, qd, qr_d, qr_dd), kd * s
+    tau = M @ qr_dd + model._C(q, qd) @ qr_d + model._g(q) + Y @ theta - K_D_s
+    return tau, Y, s
+
+
+def _adaptation_step(theta, Y, s, gamma, dt):
+    """theta + dt theta_dot, theta_dot = -Gamma Y^T s (10,); gamma (10,) the diagonal of Gamma, dt s."""
+    return theta - dt * gamma * (Y.T @ s)
+
+
+def _project(theta, gamma, mass_max, com_max):
+    """The point of Omega (the module docstring) nearest theta (10,) in the metric of Gamma^-1, gamma (10,)
+    its diagonal with one value on the three first moments: mass and first moment on the cone
+    |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds."""
+    out = theta.copy()
+    out[MASS], out[FIRST_MOMENT] = _project_on_cone(theta[0], theta[FIRST_MOMENT], gamma[0], gamma[1],
+                                                    mass_max, com_max)
+    bound = mass_max * com_max ** 2
+    out[INERTIA] = np.clip(theta[INERTIA], bound * _INERTIA_LOWER, bound * _INERTIA_UPPER)
+    return out
+
+
+def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
+    """(m, h) of {|h| <= com_max m, m <= mass_max} nearest (m, h) in the metric (dm^2 / gamma_m + |dh|^2 / gamma_h).
+
+    In the scaled x = m / sqrt(gamma_m), y = h / sqrt(gamma_h) the set is the cone |y| <= b x,
+    b = com_max sqrt(gamma_m / gamma_h), cut at x_max: the point itself inside; the apex when it lies in
+    the polar cone (b |y| <= -x); else the ray (t, b t y / |y|), t = (x + b |y|) / (1 + b^2). A point beyond
+    x_max goes to the disk |y| <= b x_max at x_max."""
+    rm, rh = math.sqrt(gamma_m), math.sqrt(gamma_h)
+    x, y, b, x_max = m / rm, h / rh, com_max * rm / rh, mass_max / rm
+    r = math.sqrt(y @ y)
+    if r > b * x:
+        if b * r <= -x:
+            x, y = 0.0, np.zeros(3)
+        else:
+            x = (x + b * r) / (1.0 + b * b)
+            y = y * (b * x / r)
+    if x > x_max:
+        x = x_max
+        r = math.sqrt(y @ y)
+        y = y * min(1.0, b * x_max / r) if r > 0.0 else y
+    return x * rm, y * rh
+
+
+def adaptive_computed_torque(model, q, qd, q_d, qd_d, qdd_d, theta, lam, kd=None):
+    """tau (n,) = M qr_dd + C qr_d + g + Y(q, qd, qr_d, qr_dd) theta - K_D s, qr_d = qd_d + lam (q_d - q),
+    qr_dd = qdd_d + lam (qd_d - qd), s = qd - qr_d.
+
+    model: a URDF model with a tip (UrdfModel); vectors (n,) SI; theta (10,) the inertial parameters of a
+    body carried by the tip (m kg, m c kg m, inertia kg m^2 about the tip frame's origin); lam > 0, 1/s;
+    kd: N m s/rad per joint (one value or (n,)), None = lam M_hat(q) (M(q) with theta's inertia). ArgumentError naming the bad argument."""
+    _check_model(model)
+    q, qd, q_d, qd_d, qdd_d = validation.vectors(model.n, q=q, qd=qd, q_d=q_d, qd_d=qd_d, qdd_d=qdd_d)
+    theta = validation.vector('theta', theta, 10)
+    lam = validation.scalar('lam', lam, positive=True)
+    kd = None if kd is None else per_joint('kd', kd, model.n)
+    qr_d, qr_dd = _reference_motion(q_d - q, qd_d - qd, qd_d, qdd_d, lam)
+    return validation.result('tau', _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd)[0])
+
+
+def project_payload(theta, gamma, mass_max, com_max):
+    """theta (10,) projected on Omega (_project): gamma one value or three (mass, first moment, inertia) > 0;
+    mass_max kg, com_max m > 0. ArgumentError naming the bad argument."""
+    theta = validation.vector('theta', theta, 10)
+    return _project(theta, _gamma_diagonal('gamma', gamma), validation.scalar('mass_max', mass_max, positive=True),
+                    validation.scalar('com_max', com_max, positive=True))
+
+
+def _gamma_diagonal(name, gamma):
+    """The diagonal (10,) of Gamma from one value or three (mass, first moment, rotational inertia), each > 0."""
+    g = validation.vector(name, [gamma] if np.isscalar(gamma) else gamma)
+    if g.shape[0] not in (1, 3) or min(g.tolist()) <= 0.0:
+        raise ArgumentError(name, f'expected one value or three (mass, first moment, inertia), each > 0, got {g.tolist()}')
+    g = np.repeat(g, 3) if g.shape[0] == 1 else g
+    return np.repeat(g, (1, 3, 6))
+
+
+def _check_model(model):
+    if not callable(getattr(model, '_tip_regressor', None)) or not model.task_dim:
+        raise ArgumentError('model', 'adaptive_computed_torque estimates the body carried by the tip: it needs a URDF '
+                                     'model with a tip')
+
+
+def _check_gain(value, values):
+    _gamma_diagonal('adaptation_gain', value)
+
+
+_PER_JOINT = 'empty, one value (every joint) or one per joint'
+
+#: the adaptive law's parameters, in the order of the controller's parameter table
+PARAM_ROWS = (
+    Row('adaptation_gain', 'double_array', (5.0, 1.0, 0.01), 'adaptive_computed_torque: adaptation gain Gamma of '
+        "the tip's payload estimate, for its mass, first moment m c and rotational inertia: one value for all or "
+        'three, kg^2/J, (kg m)^2/J, (kg m^2)^2/J', [custom('one or three values, each > 0', _check_gain)]),
+    Row('adaptive_lambda', 'double', 6.0, 'adaptive_computed_torque: Lambda, 1/s: the sliding variable '
+        's = -(Ed + Lambda E); with the designed kd the error equation is critically damped at lambda rad/s',
+        [gt(0)]),
+    Row('adaptive_kd', 'double_array', (), 'adaptive_computed_torque: K_D per joint, N m s/rad (N s/m); empty = '
+        "designed each tick as lambda M_hat(q), the model's inertia matrix with the estimate's", [custom(_PER_JOINT), gt_eq(0)]),
+    Row('adaptive_mass_max', 'double', 10.0, 'adaptive_computed_torque: the largest payload mass the estimate may '
+        'reach, kg (it stays >= 0)', [gt(0)]),
+    Row('adaptive_com_max', 'double', 0.3, "adaptive_computed_torque: the payload's centre of mass lies within this "
+        "distance of the tip frame's origin, m; its rotational inertia entries within adaptive_mass_max times its "
+        'square', [gt(0)]),
+)
+_DEFAULTS = {row.name: row.default for row in PARAM_ROWS}
+
+
+@dataclasses.dataclass(frozen=True)
+class AdaptiveParams:
+    """The adaptive law's parameters (PARAM_ROWS), checked: adaptation_gain one or three values > 0 (kg^2/J,
+    (kg m)^2/J, (kg m^2)^2/J); adaptive_lambda > 0, 1/s; adaptive_kd empty or values >= 0, N m s/rad (one per
+    joint is checked with the model); adaptive_mass_max > 0, kg; adaptive_com_max > 0, m."""
+
+    adaptation_gain: tuple = _DEFAULTS['adaptation_gain']
+    adaptive_lambda: float = _DEFAULTS['adaptive_lambda']
+    adaptive_kd: tuple = _DEFAULTS['adaptive_kd']
+    adaptive_mass_max: float = _DEFAULTS['adaptive_mass_max']
+    adaptive_com_max: float = _DEFAULTS['adaptive_com_max']
+
+    def __post_init__(self):
+        set_ = functools.partial(object.__setattr__, self)
+        gain = [self.adaptation_gain] if np.isscalar(self.adaptation_gain) else self.adaptation_gain
+        _gamma_diagonal('adaptation_gain', gain)
+        set_('adaptation_gain', tuple(validation.vector('adaptation_gain', gain).tolist()))
+        kd = () if self.adaptive_kd is None else tuple(np.atleast_1d(np.asarray(self.adaptive_kd, dtype=float)).tolist())
+        if kd and (not validation.finite(np.array(kd)) or min(kd) < 0.0):
+            raise ArgumentError('adaptive_kd', f'expected {_PER_JOINT}, each >= 0, got {list(kd)}')
+        set_('adaptive_kd', kd)
+        for name in ('adaptive_lambda', 'adaptive_mass_max', 'adaptive_com_max'):
+            set_(name, validation.scalar(name, getattr(self, name), positive=True))
+
+
+class AdaptiveComputedTorque(Law):
+    """The registry's 'adaptive_computed_torque': the joint reference; the law's own lambda, K_D, Gamma and
+    bounds; no kp/kv/ki servo gains and no error integral (the estimate is the law's)."""
+
+    name = 'adaptive_computed_torque'
+    motion_servo = False
+    param_rows = PARAM_ROWS
+    Params = AdaptiveParams
+
+    def __init__(self, config):
+        super().__init__(config)
+        _check_model(self.model)
+        params = config.law_params
+        self.lam = params.adaptive_lambda
+        self.kd = per_joint('adaptive_kd', params.adaptive_kd, self.model.n) if params.adaptive_kd else None
+        self.gamma = _gamma_diagonal('adaptation_gain', params.adaptation_gain)
+        self.mass_max, self.com_max = params.adaptive_mass_max, params.adaptive_com_max
+        self.theta = np.zeros(10)        # the estimate theta_hat
+        self._t = self._Y = self._s = None   # time, Y and s of the last tick
+
+    @property
+    def payload(self):
+        """(mass kg, centre of mass (3,) m in the tip frame) of the estimate; the centre is 0 without mass."""
+        m = float(self.theta[0])
+        return m, (self.theta[FIRST_MOMENT] / m if m > 0.0 else np.zeros(3))
+
+    def continue_from(self, old):
+        """The estimate of the same law on the same model goes on (projected on this law's bounds)."""
+        if isinstance(old, AdaptiveComputedTorque) and old.model is self.model:
+            self.theta = _project(old.theta, self.gamma, self.mass_max, self.com_max)
+            self._t, self._Y, self._s = old._t, old._Y, old._s
+
+    def torque(self, state, ref, err, int_E):
+        self._adapt(state.t)
+        qr_d, qr_dd = _reference_motion(err.E, err.Ed, ref.qd_d, ref.qdd_d, self.lam)
+        tau, self._Y, self._s = _adaptive_computed_torque(self.model, state.q, state.qd, qr_d, qr_dd, self.theta,
+                                                          self.lam, self.kd)
+        return tau
+
+    def _adapt(self, t):
+        """theta_hat at t: one Euler step of theta_hat_dot = -Gamma Y^T s from the last tick's Y, s, projected."""
+        last, self._t = self._t, t
+        if last is None or not 0.0 < t - last <= MAX_ADAPTATION_STEP:
+            return
+        step = _adaptation_step(self.theta, self._Y, self._s, self.gamma, t - last)
+        self.theta = _project(step, self.gamma, self.mass_max, self.com_max)
