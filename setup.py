@@ -33,6 +33,7 @@ setup(
             'sim_bridge_node = sim_bridge.bridge_node:main',
             'record = robot_control.tools.record:main',
             'plot = robot_control.tools.plot:main',
+            'sweep = robot_control.tools.sweep:main',
         ],
     },
 )
