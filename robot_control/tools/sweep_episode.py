@@ -15,9 +15,8 @@ The episode's metrics (one table row; coordinates as demo_metrics names them: jo
     peak_torque                         max |tau| commanded over joints and ticks, N m or N
     saturated_ticks                     ticks with a command at its effort limit (any joint)
     force_rms_error, force_max_error    the largest over the force axes (N), NaN without force control
-    stable                              every error and torque finite, no state refused, and the largest
-                                        |e| of the final steady_window s at most stability_ratio times the
-                                        largest before it (+ STABLE_FLOOR): bounded, not growing
+    stable                              every error and torque finite, no state refused, and every |e| at
+                                        most the spec's stability_limit (rad or m, default 1): bounded
     passed                              stable and every criterion met (metric <= its limit)
 """
 import dataclasses
@@ -40,7 +39,6 @@ from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import make_loop
 
 NS = units.NS_PER_S
-STABLE_FLOOR = 1e-6          # rad or m: an error below this never counts as growing
 SECTIONS = {'controller': '/**/controller', 'sim_bridge': '/**/sim_bridge'}
 TASK_AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')       # the wrench's six entries (f, m), world axes
 METRICS = ('rms_error', 'max_error', 'final_error', 'peak_torque', 'saturated_ticks', 'force_rms_error',
@@ -267,7 +265,7 @@ def run(p, k, keep=False):
         return (row, None) if keep else row
     data = trace.run_data(p.experiment, ccfg, core_names(ccfg))
     row.update(metrics_of(data, p, error=refused and f'state refused: {refused}'))
-    row['ticks'], row['wall_s'] = trace.k, time.perf_counter() - t0
+    row['wall_s'] = time.perf_counter() - t0
     return (row, data) if keep else row
 
 
@@ -281,16 +279,10 @@ def _largest(named):
     return float(np.max(values)) if values else math.nan
 
 
-def stable(data, steady_window, ratio):
-    """The stability verdict of a run (see the module docstring)."""
+def stable(data, limit):
+    """The stability verdict of a run: errors and torques finite, every |e| <= limit (rad or m)."""
     e = data.motion_error()
-    if not (np.all(np.isfinite(e)) and np.all(np.isfinite(data.tau_cmd))):
-        return False
-    if not e.size:
-        return True
-    late = data.window(data.t[-1] - steady_window)
-    before = np.abs(e[~late]).max() if np.any(~late) else 0.0
-    return bool(np.abs(e[late]).max() <= ratio * before + STABLE_FLOOR)
+    return bool(np.all(np.isfinite(e)) and np.all(np.isfinite(data.tau_cmd)) and np.all(np.abs(e) <= limit))
 
 
 def metrics_of(data, p, error=''):
@@ -302,12 +294,13 @@ def metrics_of(data, p, error=''):
     if data is None or not data.samples:
         return out
     exp = p.experiment
+    out['ticks'] = int(data.samples)
     s = demo_metrics.summarize(data, exp, 'lockstep', exp.duration)
     for key in ('rms_error', 'max_error', 'final_error', 'force_rms_error', 'force_max_error'):
         out[key] = _largest(s[key])
     out['peak_torque'] = float(np.nanmax(np.abs(data.tau_cmd)))
     out['saturated_ticks'] = int(s['saturated_ticks'] or 0)
-    out['stable'] = not error and stable(data, exp.steady_window, p.spec.stability_ratio)
+    out['stable'] = not error and stable(data, p.spec.stability_limit)
     out['passed'] = out['stable'] and all(out[k] <= limit for k, limit in p.spec.criteria.items())
     for key in ('rms_error', 'max_error', 'final_error'):
         out.update({f'{key}.{c}': float(v) for c, v in zip(names, s[key].values())})

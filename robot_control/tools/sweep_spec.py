@@ -41,7 +41,7 @@ NODES = ('controller', 'sim_bridge')
 KINDS = ('uniform', 'normal', 'loguniform', 'integers', 'choice')
 #: the spec's keys and what they hold
 KEYS = ('name', 'experiment', 'scenario', 'law', 'config', 'controller', 'bridge', 'trajectory', 'duration',
-        'episodes', 'seed', 'sample', 'criteria', 'settle_from', 'steady_window', 'force', 'stability_ratio')
+        'episodes', 'seed', 'sample', 'criteria', 'settle_from', 'steady_window', 'force', 'stability_limit')
 #: metrics a criterion may bound (upper limits), see robot_control.tools.sweep_episode.METRICS
 CRITERIA = ('rms_error', 'max_error', 'final_error', 'peak_torque', 'saturated_ticks', 'force_rms_error',
             'force_max_error')
@@ -148,12 +148,14 @@ class Spec:
     seed: int
     samples: tuple                        # Distributions, in the spec's order
     criteria: dict                        # metric -> upper limit
-    stability_ratio: float
+    stability_limit: float                # rad or m: a larger |e| is unstable
 
     @property
     def digest(self):
-        """A hash of the spec's text: a run directory belongs to one spec."""
-        return hashlib.sha256(json.dumps(self.text, sort_keys=True).encode()).hexdigest()[:16]
+        """A hash of the spec's text but its episode count: a run directory belongs to one spec, and may be
+        extended by more episodes (episode k does not depend on the count)."""
+        text = {k: v for k, v in self.text.items() if k != 'episodes'}
+        return hashlib.sha256(json.dumps(text, sort_keys=True).encode()).hexdigest()[:16]
 
     def with_episodes(self, episodes):
         return dataclasses.replace(self, episodes=int(episodes), text={**self.text, 'episodes': int(episodes)})
@@ -184,11 +186,11 @@ def load(path_or_text):
     for key, limit in criteria.items():
         if key not in CRITERIA or not isinstance(limit, (int, float)):
             raise ArgumentError(f'criteria.{key}', f'expected an upper limit (a number) on one of {list(CRITERIA)}')
-    ratio = text.get('stability_ratio', 1.0)
-    if not isinstance(ratio, (int, float)) or ratio <= 0:
-        raise ArgumentError('stability_ratio', f'expected a number > 0, got {ratio!r}')
+    limit = text.get('stability_limit', 1.0)
+    if not isinstance(limit, (int, float)) or isinstance(limit, bool) or not limit > 0:
+        raise ArgumentError('stability_limit', f'expected a number > 0 (rad or m), got {limit!r}')
     samples = tuple(distribution(k, v) for k, v in (text.get('sample') or {}).items())
-    return Spec(text, episodes, seed, samples, criteria, float(ratio))
+    return Spec(text, episodes, seed, samples, criteria, float(limit))
 
 
 def episode_seed(run_seed, k):
