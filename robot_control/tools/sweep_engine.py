@@ -169,7 +169,8 @@ def run_local(spec, out, workers=1, say=lambda text: print(text, file=sys.stderr
             finished(sweep_episode.run(p, k))
     else:
         _pool(spec, workers, todo, rows, finished, say)
-    progress.add(None, force=True)
+    if not progress.new:
+        progress.add(None, force=True)
     ordered = [rows[k] for k in range(spec.episodes)]
     run_dir.finish(ordered)
     return ordered, progress

@@ -22,6 +22,7 @@ The episode's metrics (one table row; coordinates as demo_metrics names them: jo
 import dataclasses
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import yaml
@@ -100,6 +101,13 @@ def trajectory(text):
     return demo_experiments.TrajectorySpec(start, (T,), (goal,))
 
 
+def parameter_file(name, scenario):
+    """A spec's `config` entry: a file path, else a path under the package's config/ (realism/iiwa_typical.yaml),
+    the directory of config/<scenario>.yaml."""
+    path = Path(name)
+    return path if path.is_file() else config_path(scenario).parent / name
+
+
 @dataclasses.dataclass
 class Plan:
     """What every episode of a spec shares: the spec, its Experiment, the base values of each node
@@ -125,7 +133,7 @@ def plan(spec):
     """The Plan of a checked Spec; ArgumentError naming a bad key or parameter."""
     exp = experiment(spec)
     values = {node: {} for node in specs.NODES}
-    for path in [config_path(exp.scenario)] + list(spec.text.get('config') or ()):
+    for path in [config_path(exp.scenario)] + [parameter_file(f, exp.scenario) for f in spec.text.get('config') or ()]:
         try:
             doc = yaml.safe_load(open(path).read()) or {}
         except (OSError, yaml.YAMLError) as exc:
@@ -148,7 +156,7 @@ def plan(spec):
     p = Plan(spec, exp, values, tables)
     nominal = p.builder(controller_params.TABLE.validate(values['controller']))
     bridge_params.validate(values['sim_bridge'])
-    p.coordinates = tuple(a for a in core_names(nominal) if a not in nominal.force_axes)
+    p.coordinates = tuple(a for a in core_names(nominal) if a not in force_axes(nominal))
     return p
 
 
@@ -200,7 +208,7 @@ class Trace:
         """demo_metrics.RunData of the ticks recorded."""
         k = self.k
         cut = (lambda a: a[:k])
-        axes = tuple(ccfg.force_axes)
+        axes = force_axes(ccfg)
         return demo_metrics.RunData(
             t=cut(self.t), joints=exp.joints, joint_units=exp.units, q=cut(self.q), qd=cut(self.qd),
             tau_applied=cut(self.tau_a), tau_cmd=cut(self.tau_c), ref_names=ref_names, ref_pos=cut(self.rp),
@@ -267,6 +275,11 @@ def run(p, k, keep=False):
     row.update(metrics_of(data, p, error=refused and f'state refused: {refused}'))
     row['wall_s'] = time.perf_counter() - t0
     return (row, data) if keep else row
+
+
+def force_axes(ccfg):
+    """The force-controlled axes of a ControllerConfig whose law uses force (demo: the same rule), else ()."""
+    return tuple(ccfg.force_axes) if ccfg.control_law.uses_force else ()
 
 
 def core_names(ccfg):

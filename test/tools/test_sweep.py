@@ -16,7 +16,7 @@ from robot_control.core.controller import Controller
 from robot_control.param_table import Row
 from robot_control.ros import controller_params
 from robot_control.ros.config_builder import ConfigBuilder
-from robot_control.tools import demo_metrics, sweep, sweep_engine, sweep_episode, sweep_spec
+from robot_control.tools import demo_metrics, sweep, sweep_engine, sweep_episode, sweep_report, sweep_spec
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import make_loop
@@ -225,8 +225,8 @@ def wait_for(condition, timeout, what):
 
 
 def test_a_killed_worker_costs_nothing_every_episode_once_as_in_a_clean_run(tmp_path):
-    n = 10
-    text = ('scenario: polar_two_link\nduration: 1.0\nepisodes: %d\nseed: 3\n'
+    n = 16
+    text = ('scenario: polar_two_link\nduration: 1.5\nepisodes: %d\nseed: 3\n'
             'trajectory: {goal: [0.5, 0.7], duration: 0.5}\nsample: {sim_params.m: {uniform: [1.6, 2.4]}}\n' % n)
     (tmp_path / 'spec.yaml').write_text(text)
     out = tmp_path / 'killed'
@@ -275,3 +275,28 @@ def test_lecture_gains_pass_a_20_percent_mass_error_where_an_under_designed_gain
     # the failures are the episodes furthest from the controller's 2 kg
     worst_passing = max(abs(r['sim_params.m'] - 2.0) for r in weak if r['passed'])
     assert all(abs(r['sim_params.m'] - 2.0) > worst_passing for r in weak if not r['passed'])
+
+
+def test_stiff_gains_with_a_long_measurement_delay_are_unstable_and_lead_the_worst_episodes():
+    spec = polar(episodes=4, seed=5, duration=1.5, controller={'omega_res': 300.0}, criteria={'max_error': 0.5},
+                 sample={'delay.measurement_ticks': {'choice': [0, 20]}})
+    p = sweep_episode.plan(spec)
+    rows = [sweep_episode.run(p, k) for k in range(4)]
+    delays = [r['delay.measurement_ticks'] for r in rows]
+    assert sorted(set(delays)) == [0, 20] and all(isinstance(d, int) for d in delays)
+    for r in rows:       # 20 ms of delay against w_n = 150 rad/s: the error leaves the 1 rad bound
+        assert r['stable'] == r['passed'] == (r['delay.measurement_ticks'] == 0), r
+    s = sweep_report.summary(rows, spec, ['delay.measurement_ticks'])
+    assert s['passed'] == s['stable'] == delays.count(0) and s['pass_rate'] == delays.count(0) / 4
+    assert [w['delay.measurement_ticks'] for w in s['worst']][:delays.count(20)] == [20] * delays.count(20)
+    assert s['worst'][0]['badness'] == math.inf
+
+
+def test_a_bad_spec_exits_2_naming_the_key(tmp_path, capsys):
+    spec = tmp_path / 'bad.yaml'
+    spec.write_text('scenario: polar_two_link\nduration: 0.5\nepisodes: 2\ncontroller: {no_such: 1}\n')
+    assert sweep.main(['run', str(spec), '--workers', '0', '--out', str(tmp_path / 'r')]) == 2
+    assert 'controller.no_such' in capsys.readouterr().err
+    spec.write_text('scenario: polar_two_link\nduration: 0.5\ncriteria: {rms: 1}\n')
+    assert sweep.main(['run', str(spec), '--out', str(tmp_path / 'r')]) == 2
+    assert 'criteria.rms' in capsys.readouterr().err
