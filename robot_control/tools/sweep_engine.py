@@ -30,8 +30,10 @@ import yaml
 from robot_control.tools import sweep_episode, sweep_spec
 from robot_control.validation import ArgumentError
 
-MAX_POOL_RESTARTS = 10
-PROGRESS_PERIOD = 0.5         # s of wall time between progress lines
+MAX_POOL_RESTARTS = 10       # rebuilds of a pool whose worker died, in all
+MAX_IDLE_RESTARTS = 2        # ... in a row without a finished episode (a worker that cannot start)
+PROGRESS_PERIOD = 0.5         # s of wall time between progress lines on a terminal (rewritten in place)
+LOG_PERIOD = 10.0             # ... into a file or pipe (one line each)
 
 
 def parse(text):
@@ -104,6 +106,8 @@ class Progress:
 
     def __init__(self, total, done, stream=sys.stderr):
         self.total, self.done, self.stream = total, done, stream
+        tty = getattr(stream, 'isatty', lambda: False)()
+        self._period, self._start, self._end = (PROGRESS_PERIOD, '\r', '   ') if tty else (LOG_PERIOD, '', '\n')
         self.new = self.ticks = 0
         self.t0 = time.perf_counter()
         self._last = -math.inf
@@ -114,15 +118,15 @@ class Progress:
             self.new += 1
             self.ticks += row.get('ticks') or 0
         now = time.perf_counter()
-        if not force and now - self._last < PROGRESS_PERIOD and self.done < self.total:
+        if not force and now - self._last < self._period and self.done < self.total:
             return
         self._last = now
         span = max(now - self.t0, 1e-9)
         rate = self.new / span
         eta = (self.total - self.done) / rate if rate else math.inf
-        self.stream.write(f'\r[sweep] {self.done}/{self.total} episodes, {rate:.2f} episodes/s, '
-                          f'{self.ticks / span:,.0f} ticks/s, ETA {eta:.0f} s   ')
-        if self.done >= self.total:
+        self.stream.write(f'{self._start}[sweep] {self.done}/{self.total} episodes, {rate:.2f} episodes/s, '
+                          f'{self.ticks / span:,.0f} ticks/s, ETA {eta:.0f} s{self._end}')
+        if self.done >= self.total and self._start:
             self.stream.write('\n')
         self.stream.flush()
 
@@ -179,6 +183,7 @@ def run_local(spec, out, workers=1, say=lambda text: print(text, file=sys.stderr
 def _pool(spec, workers, todo, rows, finished, say):
     """Run episodes `todo` on a pool of `workers` spawned processes, rebuilding it when a worker dies."""
     context = multiprocessing.get_context('spawn')
+    idle = 0
     for attempt in range(MAX_POOL_RESTARTS + 1):
         left = [k for k in todo if k not in rows]
         if not left:
@@ -196,4 +201,8 @@ def _pool(spec, workers, todo, rows, finished, say):
                     if fut.done() and not fut.cancelled() and fut.exception() is None \
                             and fut.result()['episode'] not in rows:
                         finished(fut.result())
-    raise RuntimeError(f'worker processes died {MAX_POOL_RESTARTS + 1} times; {len(todo)} episodes not run')
+        idle = idle + 1 if len([k for k in todo if k not in rows]) == len(left) else 0
+        if idle > MAX_IDLE_RESTARTS:
+            break
+    raise RuntimeError(f'worker processes died and no episode finished since ({len(todo)} to run); '
+                       'run with --workers 0 to see why')

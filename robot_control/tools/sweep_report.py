@@ -73,10 +73,21 @@ def format_summary(s, sampled):
     return '\n'.join(lines)
 
 
+def _json(value):
+    """A summary value as strict JSON takes it: NaN -> null (a metric the episode has not), inf -> "inf"."""
+    if isinstance(value, dict):
+        return {k: _json(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None if math.isnan(value) else str(value)
+    return value
+
+
 def write(out, rows, spec, sampled):
     """summary.json and the plots in directory `out`; returns the summary."""
     s = summary(rows, spec, sampled)
-    (out / 'summary.json').write_text(json.dumps(s, indent=1, default=float))
+    (out / 'summary.json').write_text(json.dumps(_json(s), indent=1, allow_nan=False))
     plots(out, rows, sampled)
     return s
 
@@ -109,6 +120,8 @@ def plots(out, rows, sampled):
             ax.scatter(x[ok], y[ok], s=8, color='tab:blue', label='passed')
             ax.scatter(x[~ok], y[~ok], s=8, color='tab:red', label='failed')
             ax.grid(True, alpha=0.35)
+            if np.all(x > 0) and x.max() > 100 * x.min():      # a log-uniform parameter, say
+                ax.set_xscale('log')
             if i == len(metrics) - 1:
                 ax.set_xlabel(col)
             if j == 0:
