@@ -90,8 +90,19 @@ class RunDirectory:
                 w.writerow(self.columns)
             w.writerow([row[c] for c in self.columns])
 
+    def parquet(self):
+        """episodes.parquet beside episodes.csv when pyarrow is installed (it is optional): its path, or None."""
+        try:
+            from pyarrow import csv as pa_csv
+            from pyarrow import parquet
+        except ImportError:
+            return None
+        path = self.table.with_suffix('.parquet')
+        parquet.write_table(pa_csv.read_csv(self.table), path)
+        return path
+
     def finish(self, rows):
-        """Rewrite the table sorted by episode (atomic)."""
+        """Rewrite the table sorted by episode (atomic), and its Parquet copy where pyarrow is installed."""
         tmp = self.table.with_suffix('.tmp')
         with open(tmp, 'w', newline='') as f:
             w = csv.writer(f)
@@ -99,6 +110,7 @@ class RunDirectory:
             for row in sorted(rows, key=lambda r: r['episode']):
                 w.writerow([row[c] for c in self.columns])
         os.replace(tmp, self.table)
+        self.parquet()
 
 
 class Progress:

@@ -316,5 +316,5 @@ def metrics_of(data, p, error=''):
     out['stable'] = not error and stable(data, p.spec.stability_limit)
     out['passed'] = out['stable'] and all(out[k] <= limit for k, limit in p.spec.criteria.items())
     for key in ('rms_error', 'max_error', 'final_error'):
-        out.update({f'{key}.{c}': float(v) for c, v in zip(names, s[key].values())})
+        out.update({f'{key}.{c}': math.nan if v is None else float(v) for c, v in zip(names, s[key].values())})
     return out

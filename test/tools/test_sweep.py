@@ -2,8 +2,11 @@
 bounds and repeat for a seed, resumed runs skip finished episodes, a killed worker loses nothing, and the
 polar robot's lecture gains pass a +-20 % mass error where an under-designed gain fails some episodes."""
 import csv
+import io
+import json
 import math
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -11,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from matplotlib.image import imread
 
 from robot_control.core.controller import Controller
 from robot_control.param_table import Row
@@ -102,6 +106,13 @@ def test_replay_of_episode_k_is_bit_identical_to_its_row_and_a_changed_row_is_re
                     'sample: {sim_params.m: {uniform: [1.6, 2.4]}, noise.velocity_std: {uniform: [0.0, 0.01]}}\n')
     run = tmp_path / 'run'
     assert sweep.main(['run', str(spec), '--workers', '0', '--out', str(run)]) == 0
+    summary = json.loads((run / 'summary.json').read_text())        # strict JSON: no NaN
+    assert summary['episodes'] == 3 and summary['passed'] == summary['stable'] == 3 and len(summary['worst']) == 3
+    assert set(summary['percentiles']) >= {'rms_error', 'max_error', 'final_error', 'peak_torque'}
+    assert summary['worst'][0]['force_rms_error'] is None
+    for png in ('histograms.png', 'metrics_vs_parameters.png'):
+        assert imread(run / png).shape[0] > 100
+    assert 'passed 3 (100.0 %)' in capsys.readouterr().out
     assert sweep.main(['replay', str(run), '2']) == 0
     assert 'bit for bit' in capsys.readouterr().out
     trace = np.load(run / 'replay' / 'episode_2.npz')
@@ -186,8 +197,10 @@ def test_a_resumed_run_skips_finished_episodes_and_completes_the_same_table(tmp_
     sweep_engine.run_local(spec.with_episodes(2), out, workers=0, say=lambda t: None)
     with open(out / 'episodes.csv', 'a') as f:
         f.write('2,12345,1.9')                      # a row cut short by an interruption
-    said = []
-    rows, progress = sweep_engine.run_local(spec, out, workers=0, say=said.append)
+    said, stream = [], io.StringIO()
+    rows, progress = sweep_engine.run_local(spec, out, workers=0, say=said.append, stream=stream)
+    assert re.fullmatch(r'(\[sweep\] \d/4 episodes, [\d.]+ episodes/s, [\d,]+ ticks/s, ETA \d+ s\n)+', stream.getvalue())
+    assert stream.getvalue().splitlines()[-1].startswith('[sweep] 4/4 episodes')
     assert progress.new == 2 and said == [f'[sweep] resuming {out}: 2 episodes done, 2 to run']
     assert [r['episode'] for r in rows] == [0, 1, 2, 3]
     for a, b in zip(rows, clean):
@@ -300,3 +313,10 @@ def test_a_bad_spec_exits_2_naming_the_key(tmp_path, capsys):
     spec.write_text('scenario: polar_two_link\nduration: 0.5\ncriteria: {rms: 1}\n')
     assert sweep.main(['run', str(spec), '--out', str(tmp_path / 'r')]) == 2
     assert 'criteria.rms' in capsys.readouterr().err
+
+
+def test_the_table_gets_a_parquet_copy_where_pyarrow_is_installed(tmp_path):
+    parquet = pytest.importorskip('pyarrow.parquet')
+    rows, _ = sweep_engine.run_local(polar(episodes=2), tmp_path, workers=0, say=lambda t: None)
+    table = parquet.read_table(tmp_path / 'episodes.parquet').to_pylist()
+    assert [r['episode'] for r in table] == [0, 1] and table[1]['rms_error'] == rows[1]['rms_error']
