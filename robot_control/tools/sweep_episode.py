@@ -268,8 +268,8 @@ def run(p, k, keep=False):
         bvals = bridge_params.TABLE.validate(values['sim_bridge'])
         ccfg = p.builder(cvals)
         trace, refused = simulate(p.experiment, ccfg, bvals, cvals['state_timeout'], p.ticks)
-    except ArgumentError as exc:
-        row.update(metrics_of(None, p, error=f'{exc.name}: {exc.reason}'))
+    except ValueError as exc:        # a draw a parameter's rules refuse (ArgumentError naming it), a World refused
+        row.update(metrics_of(None, p, error=str(exc)))
         return (row, None) if keep else row
     data = trace.run_data(p.experiment, ccfg, core_names(ccfg))
     row.update(metrics_of(data, p, error=refused and f'state refused: {refused}'))

@@ -320,3 +320,15 @@ def test_the_table_gets_a_parquet_copy_where_pyarrow_is_installed(tmp_path):
     rows, _ = sweep_engine.run_local(polar(episodes=2), tmp_path, workers=0, say=lambda t: None)
     table = parquet.read_table(tmp_path / 'episodes.parquet').to_pylist()
     assert [r['episode'] for r in table] == [0, 1] and table[1]['rms_error'] == rows[1]['rms_error']
+
+
+def test_a_draw_the_parameter_refuses_is_an_episode_that_did_not_run_naming_it():
+    p = sweep_episode.plan(polar(episodes=6, sample={'sim_params.m': {'normal': [0.2, 1.0]}}))
+    rows = [sweep_episode.run(p, k) for k in range(6)]
+    refused = [r for r in rows if r['sim_params.m'] <= 0]
+    ran = [r for r in rows if r['sim_params.m'] > 0]
+    assert refused and ran
+    for r in refused:
+        assert r['error'].startswith('sim_params.m: ') and not r['stable'] and not r['passed'] and r['ticks'] == 0
+        assert math.isnan(r['rms_error'])
+    assert all(r['error'] == '' and r['ticks'] == 601 for r in ran)
