@@ -122,8 +122,13 @@ class Plan:
 
     @property
     def ticks(self):
-        """Control ticks answered per episode: t_k = 0 .. duration."""
-        return int(round(self.experiment.duration / self.values['sim_bridge'].get('control_period', 0.001))) + 1
+        """Control ticks answered per episode at the base control_period."""
+        return ticks(self.experiment.duration, self.values['sim_bridge'].get('control_period', 0.001))
+
+
+def ticks(duration, control_period):
+    """Control ticks answered in an episode: t_k = k control_period for t_k = 0 .. duration (s)."""
+    return int(round(duration / control_period)) + 1
 
 
 TABLES = {'controller': controller_params.TABLE, 'sim_bridge': bridge_params.TABLE}
@@ -267,7 +272,8 @@ def run(p, k, keep=False):
         cvals = controller_params.TABLE.validate(values['controller'])
         bvals = bridge_params.TABLE.validate(values['sim_bridge'])
         ccfg = p.builder(cvals)
-        trace, refused = simulate(p.experiment, ccfg, bvals, cvals['state_timeout'], p.ticks)
+        n = ticks(p.experiment.duration, bvals['control_period'])
+        trace, refused = simulate(p.experiment, ccfg, bvals, cvals['state_timeout'], n)
     except ValueError as exc:        # a draw a parameter's rules refuse (ArgumentError naming it), a World refused
         row.update(metrics_of(None, p, error=str(exc)))
         return (row, None) if keep else row
