@@ -1,5 +1,6 @@
-"""Running a sweep's episodes: local worker processes (or this process), results appended as they finish,
-resumed without redoing finished episodes, and a worker that dies costs only the episodes it had.
+"""Running a sweep's episodes: local worker processes (forks of a forkserver, or spawned; or this process),
+results appended as they finish, resumed without redoing finished episodes, and a worker that dies costs
+only the episodes it had.
 
 The run directory holds spec.yaml (the spec as read), run.json (its digest and the table's columns) and
 episodes.csv (one row per finished episode, appended by this process only, in the order they finish; sorted
@@ -192,9 +193,23 @@ def run_local(spec, out, workers=1, say=lambda text: print(text, file=sys.stderr
     return ordered, progress
 
 
+#: what a forkserver imports once, before it forks the workers
+PRELOAD = ['robot_control.tools.sweep_engine', 'sim_bridge.bridge_node', 'pybullet']
+
+
+def context(method=None):
+    """The multiprocessing context of the workers: forkserver where the platform has it (the server imports
+    PRELOAD once; each worker, and a pool rebuilt after one died, is a fork of it), else spawn."""
+    method = method or ('forkserver' if 'forkserver' in multiprocessing.get_all_start_methods() else 'spawn')
+    ctx = multiprocessing.get_context(method)
+    if method == 'forkserver':
+        ctx.set_forkserver_preload(PRELOAD)
+    return ctx
+
+
 def _pool(spec, workers, todo, rows, finished, say):
-    """Run episodes `todo` on a pool of `workers` spawned processes, rebuilding it when a worker dies."""
-    context = multiprocessing.get_context('spawn')
+    """Run episodes `todo` on a pool of `workers` processes, rebuilding it when a worker dies."""
+    ctx = context()
     idle = 0
     for attempt in range(MAX_POOL_RESTARTS + 1):
         left = [k for k in todo if k not in rows]
@@ -202,7 +217,7 @@ def _pool(spec, workers, todo, rows, finished, say):
             return
         if attempt:
             say(f'\n[sweep] a worker process died: rerunning the {len(left)} unfinished episodes')
-        with cf.ProcessPoolExecutor(workers, mp_context=context, initializer=_init, initargs=(spec.text,)) as pool:
+        with cf.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init, initargs=(spec.text,)) as pool:
             futures = [pool.submit(episode, k) for k in left]
             try:
                 for fut in cf.as_completed(futures):

@@ -210,20 +210,30 @@ def test_a_resumed_run_skips_finished_episodes_and_completes_the_same_table(tmp_
     assert exc.value.name == 'out'
 
 
-def workers_of(pid):
-    """The pids of the spawned pool workers among pid's children (not the resource tracker)."""
+def children(pid):
     try:
-        children = open(f'/proc/{pid}/task/{pid}/children').read().split()
+        return [int(c) for c in open(f'/proc/{pid}/task/{pid}/children').read().split()]
     except OSError:
         return []
+
+
+def cmdline(pid):
+    try:
+        return open(f'/proc/{pid}/cmdline').read()
+    except OSError:
+        return ''
+
+
+def workers_of(pid):
+    """The pids of the pool's workers under process pid: the forks of its forkserver, or its spawned children
+    (not the resource tracker)."""
     out = []
-    for c in children:
-        try:
-            cmd = open(f'/proc/{c}/cmdline').read()
-        except OSError:
-            continue
-        if 'spawn_main' in cmd and 'resource_tracker' not in cmd:
-            out.append(int(c))
+    for c in children(pid):
+        cmd = cmdline(c)
+        if 'forkserver' in cmd:
+            out += children(c)
+        elif 'spawn_main' in cmd and 'resource_tracker' not in cmd:
+            out.append(c)
     return out
 
 
