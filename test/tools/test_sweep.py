@@ -199,7 +199,8 @@ def test_a_resumed_run_skips_finished_episodes_and_completes_the_same_table(tmp_
         f.write('2,12345,1.9')                      # a row cut short by an interruption
     said, stream = [], io.StringIO()
     rows, progress = sweep_engine.run_local(spec, out, workers=0, say=said.append, stream=stream)
-    assert re.fullmatch(r'(\[sweep\] \d/4 episodes, [\d.]+ episodes/s, [\d,]+ ticks/s, ETA \d+ s\n)+', stream.getvalue())
+    line = r'\[sweep\] \d/4 episodes, [\d.]+ episodes/s, [\d,]+ ticks/s, ETA \d+ s\n'
+    assert re.fullmatch(f'({line})+', stream.getvalue())
     assert stream.getvalue().splitlines()[-1].startswith('[sweep] 4/4 episodes')
     assert progress.new == 2 and said == [f'[sweep] resuming {out}: 2 episodes done, 2 to run']
     assert [r['episode'] for r in rows] == [0, 1, 2, 3]
@@ -350,3 +351,15 @@ def test_a_sampled_control_period_sets_the_episode_s_ticks():
     assert {r['control_period'] for r in rows} == {0.001, 0.002}
     for r in rows:
         assert r['ticks'] == round(0.6 / r['control_period']) + 1 and r['stable'], r
+
+
+def test_an_iiwa_episode_does_not_depend_on_the_episodes_its_worker_ran_before():
+    text = {'experiment': 'iiwa_ptp', 'episodes': 3, 'duration': 0.3, 'seed': 3,
+            'sample': {'controller/payload.mass': {'uniform': [0.0, 1.0]},
+                       'sim_bridge/payload.mass': {'uniform': [0.0, 1.0]},
+                       'noise.velocity_std': {'uniform': [0.0, 0.01]}}}
+    p = sweep_episode.plan(sweep_spec.load(text))
+    after = [sweep_episode.run(p, k) for k in range(3)][2]
+    fresh = sweep_episode.run(sweep_episode.plan(sweep_spec.load(text)), 2)
+    equal_rows(without_wall(after), without_wall(fresh))
+    assert after['ticks'] == 301 and after['rms_error.lbr_iiwa_joint_7'] > 0
