@@ -87,10 +87,8 @@ def cmd_replay(opts):
     run = Path(opts.run)
     spec = sweep_spec.load(str(run / 'spec.yaml'))
     p = sweep_episode.plan(spec)
-    if not 0 <= opts.k < spec.episodes:
-        raise ArgumentError('K', f'expected 0 <= K < {spec.episodes}, got {opts.k}')
-    row, data = sweep_episode.run(p, opts.k, keep=True)
     stored = read_row(run, opts.k)
+    row, data = sweep_episode.run(p, opts.k, keep=True)
     differ = [c for c in stored if c not in NOT_REPLAYED and not same(stored[c], row[c])]
     out = run / 'replay'
     out.mkdir(exist_ok=True)

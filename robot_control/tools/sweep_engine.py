@@ -61,10 +61,10 @@ class RunDirectory:
             if old['digest'] != spec.digest:
                 raise ArgumentError('out', f'{self.path} holds a run of another spec (digest {old["digest"]}, '
                                            f'this one {spec.digest}): choose another --out')
-        else:
-            (self.path / 'spec.yaml').write_text(yaml.safe_dump(spec.text, sort_keys=False))
-            meta.write_text(json.dumps({'digest': spec.digest, 'episodes': spec.episodes, 'seed': spec.seed,
-                                        'columns': self.columns}, indent=1))
+        # the same spec but perhaps its episode count: written again
+        (self.path / 'spec.yaml').write_text(yaml.safe_dump(spec.text, sort_keys=False))
+        meta.write_text(json.dumps({'digest': spec.digest, 'episodes': spec.episodes, 'seed': spec.seed,
+                                    'columns': self.columns}, indent=1))
 
     def rows(self):
         """The finished episodes' rows (a last line cut short is dropped from the file)."""

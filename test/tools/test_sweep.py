@@ -127,6 +127,11 @@ def test_replay_of_episode_k_is_bit_identical_to_its_row_and_a_changed_row_is_re
     (run / 'episodes.csv').write_text('\n'.join(lines) + '\n')
     assert sweep.main(['replay', str(run), '2']) == 1
     assert 'rms_error' in capsys.readouterr().err
+    assert sweep.main(['replay', str(run), '3']) == 2                  # not run yet
+    assert 'K: episode 3 is not in' in capsys.readouterr().err
+    assert sweep.main(['run', str(spec), '--workers', '0', '--out', str(run), '--episodes', '4']) == 0
+    assert sweep.main(['replay', str(run), '3']) == 0                  # the run grew by one episode
+    assert len((run / 'episodes.csv').read_text().splitlines()) == 5
 
 
 # -- distributions ------------------------------------------------------------------------------------------
