@@ -11,8 +11,9 @@ in the table exactly once. Episodes are deterministic (robot_control.tools.sweep
 same row as a clean run, whichever worker runs it.
 
 The engine is `run_local` (processes of this machine). Another engine (a Ray cluster, an optimiser asking
-for episodes) only needs `Pending` (which episodes are left), `episode` (the function a worker runs, on the
-spec's text and an index) and `RunDirectory.append`.
+for episodes) needs the same three pieces: the episodes left (the indices not in `RunDirectory.rows()`),
+what a worker runs (`_init(spec text)` once per process, then `episode(k)` -> the row) and the one writer
+(`RunDirectory.append`, then `finish`).
 """
 import concurrent.futures as cf
 import csv
