@@ -368,3 +368,14 @@ def test_an_iiwa_episode_does_not_depend_on_the_episodes_its_worker_ran_before()
     fresh = sweep_episode.run(sweep_episode.plan(sweep_spec.load(text)), 2)
     equal_rows(without_wall(after), without_wall(fresh))
     assert after['ticks'] == 301 and after['rms_error.lbr_iiwa_joint_7'] > 0
+
+
+def test_sampled_controller_gains_reach_the_controller_s_design():
+    p = sweep_episode.plan(polar(episodes=3, sample={'zeta': {'uniform': [1.0, 1.5]},
+                                                     'omega_res': {'loguniform': [6.0, 24.0]}}))
+    for k in range(3):
+        _, values, drawn = sweep_episode.episode_values(p, k)
+        gains = ConfigBuilder()(controller_params.TABLE.validate(values['controller'])).gains
+        w_n = 0.5 * drawn['omega_res']                             # omega_n: 0 = 0.5 omega_res
+        assert np.allclose(gains.kp, w_n ** 2) and np.allclose(gains.kv, 2.0 * drawn['zeta'] * w_n)
+    assert sweep_episode.run(p, 0)['stable']
