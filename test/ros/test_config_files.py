@@ -170,7 +170,7 @@ def _template_sections():
     with open(TEMPLATE, encoding='utf-8') as f:
         doc = yaml.safe_load(f)
     assert set(doc) == NODE_SECTIONS and all(set(s) == {'ros__parameters'} for s in doc.values())
-    return {name: _flatten(doc[f'/**/{name}']['ros__parameters']) for name in ('controller', 'sim_bridge')}
+    return {name: flatten(doc[f'/**/{name}']['ros__parameters']) for name in ('controller', 'sim_bridge')}
 
 
 def _through_table(table, params):
