@@ -162,6 +162,7 @@ def plan(spec):
     nominal = p.builder(controller_params.TABLE.validate(values['controller']))
     bridge_params.validate(values['sim_bridge'])
     p.coordinates = tuple(a for a in core_names(nominal) if a not in force_axes(nominal))
+    episode_values(p, 0)          # every distribution fits its parameter (bounds per entry, scalar or array)
     return p
 
 

@@ -59,11 +59,6 @@ class Distribution:
     clip: tuple = None
     relative: bool = False
 
-    @property
-    def column(self):
-        """The table's column of this parameter (the node only where the name is in both tables)."""
-        return self.name
-
     def draw(self, rng, base, row):
         """A value of parameter `row` (param_table.Row) drawn with numpy Generator `rng`: a float, an int
         or a list of them (array rows: one per entry of `base`, the parameter's value before sampling)."""
@@ -123,6 +118,8 @@ def distribution(key, text):
     kind, args = kinds[0], text[kinds[0]]
     if not isinstance(args, (list, tuple)) or (kind != 'choice' and len(args) != 2) or not args:
         raise ArgumentError(where, f'{kind}: expected [lo, hi]' if kind != 'choice' else 'choice: expected a list')
+    if kind == 'choice' and not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in args):
+        raise ArgumentError(where, f'choice: expected numbers, got {args}')
     if kind != 'choice':
         lo, hi = (np.asarray(a, dtype=float) for a in args)
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
@@ -233,7 +230,7 @@ def flat_columns(spec, drawn):
         node = dist.node or next(n for n in NODES if dist.name in drawn[n])
         value = drawn[node][dist.name]
         if isinstance(value, list):
-            out.update({f'{dist.column}[{i}]': v for i, v in enumerate(value)})
+            out.update({f'{dist.name}[{i}]': v for i, v in enumerate(value)})
         else:
-            out[dist.column] = value
+            out[dist.name] = value
     return out

@@ -180,6 +180,9 @@ def test_episode_seeds_come_from_seed_sequence_spawn_and_the_draws_repeat():
     ({'sim_params.m': {'loguniform': [0.0, 1.0]}}, 'sample.sim_params.m'),
     ({'sim_params.m': {'uniform': [1.0, 2.0], 'normal': [1, 1]}}, 'sample.sim_params.m'),
     ({'controller/sim_params.m': {'uniform': [1.0, 2.0]}}, 'sample.controller/sim_params.m'),
+    ({'sim_params.m': {'choice': ['heavy', 'light']}}, 'sample.sim_params.m'),
+    ({'sim_params.m': {'uniform': [[1.0, 2.0], [2.0, 3.0]]}}, 'sample.sim_params.m'),     # a scalar parameter
+    ({'noise.position_std': {'uniform': [[0, 0, 0], [1, 1, 1]]}}, 'sample.noise.position_std'),   # 2 joints
 ])
 def test_a_bad_sample_is_refused_naming_it(sample, name):
     with pytest.raises(ArgumentError) as exc:
