@@ -140,7 +140,7 @@ def plan(spec):
     values = {node: {} for node in specs.NODES}
     for path in [config_path(exp.scenario)] + [parameter_file(f, exp.scenario) for f in spec.text.get('config') or ()]:
         try:
-            doc = yaml.safe_load(open(path).read()) or {}
+            doc = yaml.safe_load(Path(path).read_text()) or {}
         except (OSError, yaml.YAMLError) as exc:
             raise ArgumentError('config', f'cannot read {path}: {exc}') from None
         for node, key in SECTIONS.items():
