@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 from matplotlib.image import imread
 
 from robot_control.core.controller import Controller
@@ -382,3 +383,13 @@ def test_sampled_controller_gains_reach_the_controller_s_design():
         w_n = 0.5 * drawn['omega_res']                             # omega_n: 0 = 0.5 omega_res
         assert np.allclose(gains.kp, w_n ** 2) and np.allclose(gains.kv, 2.0 * drawn['zeta'] * w_n)
     assert sweep_episode.run(p, 0)['stable']
+
+
+def test_the_docs_distributions_parse_and_the_shipped_spec_plans():
+    text = open(os.path.join(ROOT, 'docs', 'sweep.md'), encoding='utf-8').read()
+    block = re.search(r'```yaml\n(sample:.*?)```', text, re.S).group(1)
+    sample = yaml.safe_load(block)['sample']
+    assert len([sweep_spec.distribution(k, v) for k, v in sample.items()]) == 8
+    spec = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'polar_mass_error.yaml'))
+    p = sweep_episode.plan(spec)
+    assert spec.episodes == 200 and p.experiment.scenario == 'polar_two_link' and p.coordinates == ('theta1', 'r')
