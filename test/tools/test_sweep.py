@@ -355,7 +355,7 @@ def test_a_draw_the_parameter_refuses_is_an_episode_that_did_not_run_naming_it()
 
 
 def test_a_sampled_control_period_sets_the_episode_s_ticks():
-    p = sweep_episode.plan(polar(episodes=4, seed=2, sample={'control_period': {'choice': [0.001, 0.002]}}))
+    p = sweep_episode.plan(polar(episodes=4, seed=2, sample={'sim_bridge/control_period': {'choice': [0.001, 0.002]}}))
     rows = [sweep_episode.run(p, k) for k in range(4)]
     assert {r['control_period'] for r in rows} == {0.001, 0.002}
     for r in rows:
