@@ -16,6 +16,7 @@ setup(
         ('share/' + PACKAGE + '/config', glob('config/*.yaml')),
         ('share/' + PACKAGE + '/config/templates', glob('config/templates/*.yaml')),
         ('share/' + PACKAGE + '/config/realism', glob('config/realism/*.yaml')),
+        ('share/' + PACKAGE + '/config/sweeps', glob('config/sweeps/*.yaml')),
         ('share/' + PACKAGE + '/launch', glob('launch/*.launch.py')),
         ('share/' + PACKAGE + '/urdf', glob(PACKAGE + '/urdf/*.urdf')),
         ('share/' + PACKAGE + '/dds', [PACKAGE + '/ros/fastdds_profile.xml']),
@@ -33,6 +34,7 @@ setup(
             'sim_bridge_node = sim_bridge.bridge_node:main',
             'record = robot_control.tools.record:main',
             'plot = robot_control.tools.plot:main',
+            'sweep = robot_control.tools.sweep:main',
         ],
     },
 )

@@ -414,6 +414,17 @@ def plain_text(rows, width=100):
     return '\n'.join(lines)
 
 
+def flatten(d, prefix=''):
+    """{'a': {'b': 1}} -> {'a.b': 1}: the nested keys of a `ros__parameters` section as parameter names."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(flatten(v, f'{prefix}{k}.'))
+        else:
+            out[f'{prefix}{k}'] = v
+    return out
+
+
 def _yaml(v):
     """A default as YAML shows it ('' quoted, .inf, lists in brackets); '(required)' for None."""
     if v is None:
