@@ -31,11 +31,9 @@ written from the World's state as floats. joint_states goes out before /clock an
 `main` spins rclpy's C++ EventsExecutor by default (`--executor single` for the Python one); `--help`
 lists the parameters with their units and defaults; exit statuses as robot_control.ros.entry.
 """
-import dataclasses
 import sys
 import time
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
@@ -46,34 +44,19 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import SetBool, Trigger
 
-from robot_control import scenarios, units
+from robot_control import units
 from robot_control.ros import cdr, conversions, entry
 from robot_control.ros.param_engine import ParameterEngine, ParameterNode
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DESCRIPTION_QOS, DIAGNOSTICS_QOS
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import COMMAND_TOPICS, make_loop
+from sim_bridge.engines import world_of_config as make_world
 
 stamp_ns = units.stamp_ns
 #: /clock: reliable (also serves rclpy's and rclcpp's best-effort clock subscriptions), newest only
 CLOCK_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)  # deep: see qos.CONTROL_PUB_QOS
 GRAPH_PERIOD = 0.1    # s of wall time between publisher counts on the command topics
-
-def make_world(cfg):
-    """The World for a validated BridgeConfig on its engine (the only place that knows World's signature)."""
-    from sim_bridge.engines import make_world as make
-    dist = None
-    if np.any(cfg.disturbance_joint_torque) or np.any(cfg.disturbance_cartesian_force):
-        dist = {'joint_torque': cfg.disturbance_joint_torque,
-                'cartesian_force': cfg.disturbance_cartesian_force}
-    surface = False
-    if cfg.surface_enable:
-        surface = dataclasses.replace(scenarios.get(cfg.scenario).surface, k_e=cfg.k_e, x_e=cfg.x_e)
-    return make(cfg.engine, cfg.scenario or None, gui=cfg.gui, dt=cfg.physics_step,
-                params=cfg.sim_params or None, urdf=cfg.urdf or None, joints=cfg.joints,
-                q0=cfg.initial_positions, surface=surface, disturbance=dist, payload=cfg.payload,
-                friction=cfg.friction)
-
 
 class SimBridge(ParameterNode):
     """The bridge node; `**kwargs` go to Node (context, parameter_overrides, cli_args, ...).

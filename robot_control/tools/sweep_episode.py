@@ -187,9 +187,9 @@ def episode_values(p, k):
 
 # -- one episode ---------------------------------------------------------------------------------------------
 def make_world(cfg):
-    """The bridge node's World for a BridgeConfig (its one factory; importing it loads rclpy once per process)."""
-    from sim_bridge.bridge_node import make_world as factory
-    return factory(cfg)
+    """The bridge node's World for a BridgeConfig (sim_bridge.engines.world_of_config, without rclpy)."""
+    from sim_bridge.engines import world_of_config
+    return world_of_config(cfg)
 
 
 class Trace:
