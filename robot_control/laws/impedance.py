@@ -26,7 +26,7 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Errors, Law
-from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
+from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia,
                                                   check_law_fits, check_task_dimension, posture_gains)
 from robot_control.param_table import Row, gt, gt_eq, size
 from robot_control.validation import ArgumentError
@@ -41,9 +41,9 @@ def rotation_mask(axes):
     return np.array([a in ROTATION_AXES for a in axes], dtype=bool)
 
 
-def _damping(root, K, zeta):
-    """D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2), (m, m): root = Lambda^1/2 (m, m), K (m,)."""
-    k = np.sqrt(K)
+def _damping(root, k, zeta):
+    """D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2), (m, m): root = Lambda^1/2 (m, m), k = K^1/2 (m,) the
+    diagonal of K^1/2."""
     return zeta * (root * k + k[:, None] * root)
 
 
@@ -105,8 +105,11 @@ def impedance(model, q, qd, x_d, xd_d, xdd_d, stiffness, damping_ratio=1.0, damp
     limits = validation.limit_vector('max_pose_error', max_pose_error, 2)
     x, J, Jdot_qd = model._task(q, qd)
     check_task_dimension(J)
-    Lambda, root = _task_inertia_root(model, q, J)
-    D = _damping(root, K, ratio) if damping is None else np.diag(axis_values('damping', damping, model.task_axes))
+    if damping is None:
+        Lambda, root = _task_inertia(model, q, J, root=True)
+        D = _damping(root, np.sqrt(K), ratio)
+    else:
+        Lambda, D = _task_inertia(model, q, J), np.diag(axis_values('damping', damping, model.task_axes))
     E = _bounded(model._task_difference(x_d, x), rotation_mask(model.task_axes), limits)
     qdd_0 = _posture_acceleration(q, qd, q_posture, kp0, kv0)
     return validation.result('tau', _impedance(model, q, qd, J, Jdot_qd, E, xd_d - J @ qd, xdd_d, K, D, F_ff, qdd_0,
@@ -173,12 +176,15 @@ class Impedance(Law):
         check_law_fits(self.name, model)
         params = config.law_params
         self.K = axis_values('cartesian_stiffness', params.cartesian_stiffness, model.task_axes)
+        self.K_root = np.sqrt(self.K)
         explicit = params.cartesian_damping
         self.D = np.diag(axis_values('cartesian_damping', explicit, model.task_axes)) if explicit else None
         self.ratio = params.cartesian_damping_ratio
         self.rotation = rotation_mask(model.task_axes)
         self.limits = params.max_pose_error
         self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
+        self.no_wrench = np.zeros(model.task_dim)               # F_ff without a feed-forward wrench
+        self.no_wrench.flags.writeable = False
 
     @property
     def reference_names(self):
@@ -192,9 +198,12 @@ class Impedance(Law):
                       xd_d - state.xd)
 
     def torque(self, state, ref, err, int_E):
-        Lambda, root = _task_inertia_root(self.model, state.q, state.J)
-        D = _damping(root, self.K, self.ratio) if self.D is None else self.D
-        F_ff = ref.wrench if ref.wrench is not None else np.zeros(self.model.task_dim)
+        if self.D is None:
+            Lambda, root = _task_inertia(self.model, state.q, state.J, root=True)
+            D = _damping(root, self.K_root, self.ratio)
+        else:
+            Lambda, D = _task_inertia(self.model, state.q, state.J), self.D
+        F_ff = ref.wrench if ref.wrench is not None else self.no_wrench
         qdd_0 = _posture_acceleration(state.q, state.qd, ref.q_d, self.kp0, self.kv0)
         return _impedance(self.model, state.q, state.qd, state.J, state.Jdot_qd, err.E, err.Ed, err.ref[2], self.K, D,
                           F_ff, qdd_0, Lambda)

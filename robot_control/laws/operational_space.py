@@ -21,7 +21,7 @@ from robot_control import validation
 from robot_control.validation import ArgumentError
 
 #: largest accepted condition number of J M^-1 J^T (the inverse task inertia), from its eigenvalues
-#: (_task_inertia_root): their rounding is about 1e-16 of the largest, so a singular J shows a smallest
+#: (_task_inertia): their rounding is about 1e-16 of the largest, so a singular J shows a smallest
 #: one below 1e-14 of it (a bound of 1e9 on cond(J), squared, would drown in rounding); the mass weighting
 #: alone spreads the iiwa's (a light last link) over 1e3 to 1e4
 MAX_INERTIA_COND = 1e14
@@ -43,23 +43,24 @@ def check_law_fits(law, model):
                                    f'{list(model.task_axes)} and {model.n} joints')
 
 
-def _task_inertia_root(model, q, J):
-    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2) and Lambda^1/2, each (m, m)
-    symmetric positive definite, from one eigendecomposition J M^-1 J^T = V diag(w) V^T: Lambda =
-    V diag(1/w) V^T, Lambda^1/2 = V diag(w^-1/2) V^T. ArgumentError naming q when J(q) is (nearly)
+def _task_inertia(model, q, J, root=False):
+    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2), (m, m) symmetric positive
+    definite, from one eigendecomposition J M^-1 J^T = V diag(w) V^T: with R = V diag(w^-1/2), Lambda =
+    R R^T; with `root`, (Lambda, Lambda^1/2 = R V^T). ArgumentError naming q when J(q) is (nearly)
     singular: the spread of w beyond MAX_INERTIA_COND (J (m, n), m <= n)."""
     w, V = np.linalg.eigh(J @ model._Minv(q) @ J.T)
     if not w[0] * MAX_INERTIA_COND > w[-1]:
         raise ArgumentError('q', f'task Jacobian singular or nearly (eigenvalues of J M^-1 J^T {w.tolist()})')
-    root = V / np.sqrt(w)
-    return root @ root.T, root @ V.T
+    R = V / np.sqrt(w)
+    Lambda = R @ R.T
+    return (Lambda, R @ V.T) if root else Lambda
 
 
 def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda):
     """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e), Lambda = (J M^-1 J^T)^-1.
 
     Checked arrays: q, qd, qdd_0 (n,); J (m, n); Jdot_qd, F (m/s^2), f_e (N) (m,); Lambda (m, m) the task
-    inertia (_task_inertia_root, which refuses a singular J)."""
+    inertia (_task_inertia, which refuses a singular J)."""
     return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (Lambda @ (F - Jdot_qd - J @ qdd_0) + f_e)
 
 
@@ -99,5 +100,5 @@ def operational_space(model, q, qd, F, f_e, qdd_0=None):
     qdd_0 = np.zeros(model.n) if qdd_0 is None else validation.vector('qdd_0', qdd_0, model.n)
     x, J, Jdot_qd = model._task(q, qd)
     check_task_dimension(J)
-    Lambda, _ = _task_inertia_root(model, q, J)
+    Lambda = _task_inertia(model, q, J)
     return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda))
