@@ -37,8 +37,8 @@ ROTATION_AXES = ('rx', 'ry', 'rz')
 
 
 def rotation_mask(axes):
-    """(m,) bool: True on the orientation axes among the task `axes`."""
-    return np.array([a in ROTATION_AXES for a in axes], dtype=bool)
+    """m bools, a tuple: True on the orientation axes among the task `axes`."""
+    return tuple(a in ROTATION_AXES for a in axes)
 
 
 def _damping(root, k, zeta):
@@ -48,11 +48,14 @@ def _damping(root, k, zeta):
 
 
 def _bounded(E, rotation, limits):
-    """E with its translation part and its rotation part (mask `rotation`) each scaled down to a norm of
-    at most limits = (m, rad)."""
-    sq = E * E
-    rot = float(sq @ rotation)
-    trans = float(sq.sum()) - rot
+    """E with its translation part and its rotation part (`rotation`: m bools, True on the rotation axes)
+    each scaled down to a norm of at most limits = (m, rad)."""
+    trans = rot = 0.0
+    for e, on_rotation in zip(E.tolist(), rotation):      # m <= 6 floats: cheaper than numpy's reductions
+        if on_rotation:
+            rot += e * e
+        else:
+            trans += e * e
     scale_t = limits[0] / math.sqrt(trans) if trans > limits[0] ** 2 else 1.0
     scale_r = limits[1] / math.sqrt(rot) if rot > limits[1] ** 2 else 1.0
     if scale_t == 1.0 and scale_r == 1.0:
