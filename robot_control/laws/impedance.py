@@ -65,8 +65,10 @@ def _bounded(E, rotation, limits):
 
 def _impedance(model, q, qd, J, Jdot_qd, E, Ed, xdd_d, K, D, F_ff, qdd_0, Lambda):
     """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (xdd_d - Jdot qd - J qdd_0) + K E + D Ed + F_ff); checked
-    arrays, J full rank, Lambda its task inertia, D (m, m)."""
-    return _operational_space(model, q, qd, J, Jdot_qd, xdd_d, K * E + D @ Ed + F_ff, qdd_0, Lambda)
+    arrays, J full rank, Lambda its task inertia, D (m, m), F_ff (m,) or None (no feed-forward wrench)."""
+    wrench = K * E + D @ Ed
+    return _operational_space(model, q, qd, J, Jdot_qd, xdd_d, wrench if F_ff is None else wrench + F_ff, qdd_0,
+                              Lambda)
 
 
 def axis_values(name, values, axes):
@@ -102,7 +104,7 @@ def impedance(model, q, qd, x_d, xd_d, xdd_d, stiffness, damping_ratio=1.0, damp
     x_d, xd_d, xdd_d = validation.vectors(m, x_d=x_d, xd_d=xd_d, xdd_d=xdd_d)
     K = axis_values('stiffness', stiffness, model.task_axes)
     ratio = validation.scalar('damping_ratio', damping_ratio, nonnegative=True)
-    F_ff = np.zeros(m) if F_ff is None else validation.vector('F_ff', F_ff, m)
+    F_ff = None if F_ff is None else validation.vector('F_ff', F_ff, m)
     q_posture = q if q_posture is None else validation.vector('q_posture', q_posture, n)
     kp0, kv0 = posture_gains(k_posture, n)
     limits = validation.limit_vector('max_pose_error', max_pose_error, 2)
@@ -186,8 +188,6 @@ class Impedance(Law):
         self.rotation = rotation_mask(model.task_axes)
         self.limits = params.max_pose_error
         self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
-        self.no_wrench = np.zeros(model.task_dim)               # F_ff without a feed-forward wrench
-        self.no_wrench.flags.writeable = False
 
     @property
     def reference_names(self):
@@ -206,7 +206,6 @@ class Impedance(Law):
             D = _damping(root, self.K_root, self.ratio)
         else:
             Lambda, D = _task_inertia(self.model, state.q, state.J), self.D
-        F_ff = ref.wrench if ref.wrench is not None else self.no_wrench
         qdd_0 = _posture_acceleration(state.q, state.qd, ref.q_d, self.kp0, self.kv0)
         return _impedance(self.model, state.q, state.qd, state.J, state.Jdot_qd, err.E, err.Ed, err.ref[2], self.K, D,
-                          F_ff, qdd_0, Lambda)
+                          ref.wrench, qdd_0, Lambda)
