@@ -8,16 +8,24 @@ Writes <out>/results.json (flat: metric name -> number), <out>/machine.json (CPU
 taken between figures measured side by side in the same run (B1 interleaves its cases round by
 round, B2 interleaves ping-pong, polar and iiwa runs).
 
-B1 law cost per call, us (median, p99): 2-DOF closed-form computed torque, 7-DOF iiwa computed
-   torque, operational-space hybrid and Cartesian impedance (pose task space) through Pinocchio, the peer modern_robotics.ComputedTorque
-   on the same iiwa and inputs (torques checked equal within 1e-8), the floor pinocchio.rnea (the iiwa's
-   inverse dynamics). The targets are on each law's median over rnea's median of the same run (law_vs_rnea_*).
+B1 law cost per control tick, us (median, p99): what the controller pays for its law each tick,
+   law.errors(state, ref) + law.torque(state, ref, err, int_E) of the Law a ControllerConfig builds (the
+   State measured as the core measures it, the Reference's arrays reused from tick to tick as the core's
+   are; LawTick): 2-DOF closed-form computed torque, 7-DOF iiwa computed torque, operational-space hybrid
+   (force on z against the table) and Cartesian impedance (pose task space) through Pinocchio. The targets
+   are on each law's median over the median of the floor pinocchio.rnea (the iiwa's inverse dynamics) in
+   the same run (law_vs_rnea_*). Beside them, without a target, each law's public function on the same
+   inputs (laws.computed_torque, hybrid, impedance: the same torques, plus the check of every argument
+   on every call, which the controller does once, at configuration: law_us_*_checked_*), and the peer
+   modern_robotics.ComputedTorque on the same iiwa and inputs (torques checked equal to computed_torque's
+   within 1e-8; speedup_vs_modern_robotics against the checked function, function against function).
 B2 lockstep closed loop over DDS (benchmarks.bench_ros), against a bare rclpy ping-pong; also
    the CPU time of both processes per step, which the other load of a shared machine hardly moves.
 B3 real time at 1 kHz (benchmarks.bench_ros): the polar arm, the iiwa under computed torque,
    hybrid control on the table and Cartesian impedance, each after a run of the floor (the bare exchange
    of states and commands at 1 kHz without physics and law); the targets hold for each run: missed
-   periods against the floor's, p99 latency, real-time factor.
+   periods at most 1.5 times the floor's runs pooled over as many periods (a floor of 0 allows 1), p99
+   latency <= 1 ms, real-time factor >= 0.99.
 B4 the PyBullet World of the iiwa without ROS: physics steps per second under torque control.
 
 `make bench` runs it (`make bench QUICK=1` with --quick). --quick runs seconds instead of minutes
@@ -104,10 +112,13 @@ def median_p99_us(ns):
     return float(np.median(a)), float(np.percentile(a, 99))
 
 
-def time_calls(fn, inputs, out):
-    """Call fn(*args) for each args in `inputs`, appending each call's wall time (ns) to `out`."""
+def time_calls(fn, inputs, out, before=None):
+    """Call fn(*args) for each args in `inputs`, appending each call's wall time (ns) to `out`; before(*args),
+    when given, runs first for each, untimed."""
     clock = time.perf_counter_ns
     for args in inputs:
+        if before is not None:
+            before(*args)
         t0 = clock()
         fn(*args)
         out.append(clock() - t0)
@@ -128,14 +139,55 @@ def _iiwa_states(model, rng, count):
     return states
 
 
+class LawTick:
+    """The law's part of one control tick, as ControllerCore.update_checked runs it: err = law.errors(state,
+    ref), then law.torque(state, ref, err, int_E), for the Law the ControllerConfig `config` built. Called as
+    (state, ref_values, int_E); load(), with the same arguments and untimed, first copies ref_values (q_d,
+    qd_d, qdd_d and for a law that uses force f_d, fd_d, fdd_d) into the arrays of the one Reference it
+    holds, as the core's References sample in place (the same arrays every tick; no task target, no
+    wrench)."""
+
+    def __init__(self, config):
+        from robot_control.laws import Reference
+        self.law = law = config.control_law
+        n, k = config.n, len(config.force_axes) if law.uses_force else 0
+        force = (np.zeros(k), np.zeros(k), np.zeros(k)) if k else (None, None, None)
+        self.ref = Reference(np.zeros(n), np.zeros(n), np.zeros(n), *force)
+
+    def load(self, state, ref_values, int_E):
+        for buffer, values in zip(self.ref, ref_values):
+            buffer[...] = values
+
+    def __call__(self, state, ref_values, int_E):
+        law, ref = self.law, self.ref
+        return law.torque(state, ref, law.errors(state, ref), int_E)
+
+
+def law_tick(config, rows, f_meas=None):
+    """(LawTick of `config`, its inputs (state, ref_values, int_E)) for rows (q, qd, ref_values, int_E): each
+    State measured as the core measures it (robot_control.core.tick.measure_task; f_meas (m,) the force
+    sensor's reading, N, or None), at t = 1 ms per row."""
+    from robot_control.core.tick import measure_task
+    from robot_control.laws import State
+    tick = LawTick(config)
+    inputs = []
+    for k, (q, qd, ref_values, int_E) in enumerate(rows):
+        task = measure_task(config, q, qd, f_meas) if tick.law.needs_task_space else ()
+        inputs.append((State(1e-3 * k, q, qd, *task), ref_values, int_E))
+    return tick, inputs
+
+
 def law_cases(count):
-    """{name: (fn, inputs)} of B1, built on the same iiwa model and inputs; checks MR equality."""
+    """{name: (fn, inputs)} of B1, on the same iiwa model and inputs: per law its per-tick case (a LawTick)
+    and its public checked function (name + '_checked'); the modern_robotics peer (torques checked equal
+    to the checked computed_torque), the floor pinocchio.rnea."""
     import modern_robotics as mr
     import pinocchio as pin
 
     from benchmarks.bench_mr import mr_chain
+    from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
-    from robot_control.laws import computed_torque, hybrid, impedance
+    from robot_control.laws import computed_torque
     from robot_control.models import for_scenario, make_model
 
     rng = np.random.default_rng(SEED)
@@ -156,38 +208,60 @@ def law_cases(count):
 
     data = iiwa.model.createData()
     rnea = [(iiwa.model, data, q, qd, qdd_d) for q, qd, _, _, qdd_d, _ in states]
-    return {'ct_2dof': (computed_torque, ct2), 'ct_7dof': (computed_torque, ct7),
-            'hybrid_7dof': (hybrid, hybrid_inputs(iiwa, states)),
-            'impedance_7dof': (impedance, impedance_inputs(for_scenario('iiwa', task_space='pose'), states)),
+    return {'ct_2dof': law_tick(ControllerConfig(polar, gains=gains2),
+                                [(q, qd, (q_d, qd_d, qdd_d), None) for _, q, qd, q_d, qd_d, qdd_d, _ in ct2]),
+            'ct_2dof_checked': (computed_torque, ct2),
+            'ct_7dof': law_tick(ControllerConfig(iiwa, gains=gains7, integral=True),
+                                [(q, qd, (q_d, qd_d, qdd_d), int_E) for _, q, qd, q_d, qd_d, qdd_d, _, int_E in ct7]),
+            'ct_7dof_checked': (computed_torque, ct7),
+            **hybrid_cases(iiwa, states),
+            **impedance_cases(for_scenario('iiwa', task_space='pose'), states),
             'mr_ct_7dof': (mr.ComputedTorque, mr_in), 'pin_rnea': (pin.rnea, rnea)}
 
 
-def hybrid_inputs(iiwa, states):
-    """Arguments of laws.hybrid for the iiwa scenario (force on z against the table, posture q_d)."""
+#: the hybrid case's contact: the iiwa scenario's table, stiffness N/m and height m; the force the sensor
+#: reads and the force reference on z, N
+K_E, X_E, F_SENSED, F_D = 20000.0, 0.25, -8.0, -10.0
+
+
+def hybrid_cases(iiwa, states):
+    """B1's hybrid cases on the iiwa, force on z against the table, x and y following the joint reference in
+    the task space, posture q_d: 'hybrid_7dof', the law of its ControllerConfig per tick, and
+    'hybrid_7dof_checked', laws.hybrid on the same inputs."""
+    from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
-    axes = np.array([False, False, True])
-    gains_T, gains_N = ServoGains.uniform(3, KP, KV), ServoGains.uniform(3, KP, KV)
-    out = []
-    for q, qd, q_d, qd_d, qdd_d, _ in states:
-        x = iiwa.fk(q) + 0.01
-        f = np.array([0.0, 0.0, -8.0])
-        out.append((iiwa, q, qd, x, qd_d[:3], qdd_d[:3], np.array([0.0, 0.0, -10.0]), np.zeros(3), np.zeros(3),
-                    f, np.zeros(3), axes, 20000.0, gains_T, gains_N, q_d))
-    return out
+    from robot_control.laws import hybrid
+    config = ControllerConfig(iiwa, law='hybrid', gains=ServoGains.uniform(3, KP, KV),
+                              force_gains=ServoGains.uniform(1, KP, KV), force_axes=('z',), k_e=(K_E,), x_e=(X_E,))
+    axes = config.force_mask
+    tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d, F_D, 0.0, 0.0), None)
+                                     for q, qd, q_d, qd_d, qdd_d, _ in states], np.where(axes, F_SENSED, 0.0))
+    checked = []
+    for (state, _, _), (q, qd, q_d, qd_d, qdd_d, _) in zip(inputs, states):
+        f, fdot = np.zeros(3), np.zeros(3)
+        f[axes], fdot[axes] = state.f, state.fdot
+        checked.append((iiwa, q, qd, *iiwa._task_motion(q_d, qd_d, qdd_d), np.where(axes, F_D, 0.0), np.zeros(3),
+                        np.zeros(3), f, fdot, axes, K_E, config.gains, config.force_gains, q_d, config.posture_gains))
+    return {'hybrid_7dof': (tick, inputs), 'hybrid_7dof_checked': (hybrid, checked)}
 
 
 #: stiffness of the impedance case: x, y, z N/m, rx, ry, rz N m/rad
 STIFFNESS = (1000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0)
 
 
-def impedance_inputs(model, states):
-    """Arguments of laws.impedance for the iiwa in the pose task space: the target the pose at q_d moving
-    with J qd_d, J qdd_d; designed damping (ratio 1); the posture q_d."""
-    out = []
-    for q, qd, q_d, qd_d, qdd_d, _ in states:
-        J = model.J(q_d)
-        out.append((model, q, qd, model.fk(q_d), J @ qd_d, J @ qdd_d, STIFFNESS, 1.0, None, None, q_d))
-    return out
+def impedance_cases(model, states):
+    """B1's impedance cases on the iiwa in the pose task space, the target the joint reference in the task
+    space, designed damping (ratio 1), posture q_d, the law's bounds of the pose error: 'impedance_7dof', the
+    law of its ControllerConfig per tick, and 'impedance_7dof_checked', laws.impedance on the same inputs."""
+    from robot_control.core.config import ControllerConfig
+    from robot_control.laws import impedance
+    config = ControllerConfig(model, law='impedance', law_params={'cartesian_stiffness': STIFFNESS,
+                                                                   'cartesian_damping_ratio': 1.0})
+    params = config.law_params
+    tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d), None) for q, qd, q_d, qd_d, qdd_d, _ in states])
+    checked = [(model, q, qd, *model._task_motion(q_d, qd_d, qdd_d), STIFFNESS, params.cartesian_damping_ratio,
+                None, None, q_d, config.posture_gains, params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
+    return {'impedance_7dof': (tick, inputs), 'impedance_7dof_checked': (impedance, checked)}
 
 
 def check_mr_equal(ours, our_inputs, peer, peer_inputs):
@@ -205,16 +279,17 @@ def bench_laws(plan):
     for r in range(plan.law_rounds + 1):
         for name, (fn, inputs) in cases.items():
             calls = inputs[:plan.mr_calls] if name == 'mr_ct_7dof' else inputs
-            time_calls(fn, calls, times[name] if r else [])
+            time_calls(fn, calls, times[name] if r else [], getattr(fn, 'load', None))
     stats = {name: median_p99_us(ns) for name, ns in times.items()}
     rnea = stats['pin_rnea'][0]
     out = {}
     for name, key in LAWS.items():
         out[f'{key}_median'], out[f'{key}_p99'] = stats[name]
         out[f'law_vs_rnea_{name}'] = vs_rnea(stats[name][0], rnea)
+        out[f'{key}_checked_median'], out[f'{key}_checked_p99'] = stats[f'{name}_checked']
     for name, key in (('mr_ct_7dof', 'mr_ct_7dof_us'), ('pin_rnea', 'pin_rnea_us')):
         out[f'{key}_median'], out[f'{key}_p99'] = stats[name]
-    out['speedup_vs_modern_robotics'] = out['mr_ct_7dof_us_median'] / out['law_us_ct_7dof_median']
+    out['speedup_vs_modern_robotics'] = out['mr_ct_7dof_us_median'] / out['law_us_ct_7dof_checked_median']
     return out
 
 

@@ -21,20 +21,27 @@ import numpy as np
 from robot_control import validation
 from robot_control.gains import ServoGains
 from robot_control.laws.base import Errors, Law
-from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia_root,
+from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia,
                                                   check_law_fits, check_task_dimension, posture_gains)
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
 
-def _hybrid_errors(dx, xd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes):
+def _hybrid_errors(dx, xd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, force):
     """Per task axis (m,): the reference acceleration (xdd_d or fdd_d) and the errors E = dx (the task
     error x_d - x, from the model for orientation axes) or f_d - f, Ed = xd_d - xd or fd_d - fdot, on
-    the motion or force axes."""
-    acc = np.where(axes, fdd_d, xdd_d)
-    E = np.where(axes, f_d - f, dx)
-    Ed = np.where(axes, fd_d - fdot, xd_d - xd)
-    return acc, E, Ed
+    the motion or force axes. dx, xd, xd_d, xdd_d (m,) (their force-axis entries unused); f, fdot, f_d,
+    fd_d, fdd_d (k,) on the force axes, whose indices among the m are `force` (k,)."""
+    Ed = xd_d - xd
+    Ed[force] = fd_d - fdot
+    return _on_axes(xdd_d, force, fdd_d), _on_axes(dx, force, f_d - f), Ed
+
+
+def _on_axes(values, index, part):
+    """A copy of `values` (m,) with its entries at `index` (k,) set to `part` (k,)."""
+    out = values.copy()
+    out[index] = part
+    return out
 
 
 def _hybrid_servo(acc, E, Ed, gains, K_e, int_E=None):
@@ -91,7 +98,9 @@ def hybrid_servo(x, xd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes,
     K_e = _stiffness(axes, validation.per_entry('K_e', K_e, m))
     gains = axis_gains(gains_T, gains_N, axes)
     int_E = validation.optional_vector('int_E', int_E, m)
-    acc, E, Ed = _hybrid_errors(x_d - x, xd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d, axes)
+    force = np.flatnonzero(axes)
+    acc, E, Ed = _hybrid_errors(x_d - x, xd, xd_d, xdd_d, f[force], fdot[force], f_d[force], fd_d[force],
+                                fdd_d[force], force)
     return validation.result('F', _hybrid_servo(acc, E, Ed, gains, K_e, int_E))
 
 
@@ -115,9 +124,10 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
     int_E = validation.optional_vector('int_E', int_E, m)
     x, J, Jdot_qd = model._task(q, qd)
     check_task_dimension(J)
-    Lambda, _ = _task_inertia_root(model, q, J)
-    acc, E, Ed = _hybrid_errors(model._task_difference(x_d, x), J @ qd, xd_d, xdd_d, f, fdot, f_d, fd_d, fdd_d,
-                                axes)
+    Lambda = _task_inertia(model, q, J)
+    force = np.flatnonzero(axes)
+    acc, E, Ed = _hybrid_errors(model._task_difference(x_d, x), J @ qd, xd_d, xdd_d, f[force], fdot[force],
+                                f_d[force], fd_d[force], fdd_d[force], force)
     F = validation.result('F', _hybrid_servo(acc, E, Ed, gains, K_e, int_E))
     qdd_0 = _posture_acceleration(q, qd, q_posture, kp0, kv0)
     return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, np.where(axes, f, 0.0), qdd_0,
@@ -138,6 +148,10 @@ class Hybrid(Law):
         model, m, k = self.model, self.model.task_dim, len(config.force_axes)
         check_law_fits(self.name, model)
         self.axes = config.force_mask
+        self.force = np.flatnonzero(self.axes)                 # the force axes' indices among the task axes
+        self._zeros = np.zeros(m)
+        self._zeros.flags.writeable = False
+        self._no_force = (self._zeros[:0],) * 5                 # f, fdot, f_d, fd_d, fdd_d without force axes
         motion = m - k
         if motion and getattr(config.gains, 'n', None) not in (m, motion):
             raise ArgumentError('kp', f'expected {m} gains (one per task axis) or {motion} (one per motion axis) '
@@ -174,31 +188,25 @@ class Hybrid(Law):
         """Motion axes: the task target (~/target_pose) once one came, else the joint reference in the task
         space, x_d = fk(q_d), xd_d = J(q_d) qd_d, xdd_d = J(q_d) qdd_d + Jdot qd_d; force axes: the force
         reference; then the errors of _hybrid_errors (force: f_e, the measured force on the force axes)."""
-        axes = self.axes
+        force = self.force
         target = ref.target
         x_d, xd_d, xdd_d = target if target is not None else self.model._task_motion(ref.q_d, ref.qd_d, ref.qdd_d)
-        f, fdot, f_d, fd_d, fdd_d = (self._on_force_axes(v) for v in (state.f, state.fdot, ref.f_d, ref.fd_d,
-                                                                      ref.fdd_d))
+        f, fdot, f_d, fd_d, fdd_d = (state.f, state.fdot, ref.f_d, ref.fd_d, ref.fdd_d) if force.size else \
+            self._no_force
         acc, E, Ed = _hybrid_errors(self.model._task_difference(x_d, state.x), state.xd, xd_d, xdd_d, f, fdot,
-                                    f_d, fd_d, fdd_d, axes)
-        return Errors((np.where(axes, f_d, x_d), np.where(axes, fd_d, xd_d), acc), E, Ed, f)
-
-    def _on_force_axes(self, values):
-        """(m,): `values` (k,) on the force axes, 0 elsewhere."""
-        full = np.zeros(self.axes.shape[0])
-        if values is not None:
-            full[self.axes] = values
-        return full
+                                    f_d, fd_d, fdd_d, force)
+        return Errors((_on_axes(x_d, force, f_d), _on_axes(xd_d, force, fd_d), acc), E, Ed,
+                      _on_axes(self._zeros, force, f))
 
     def torque(self, state, ref, err, int_E):
-        Lambda, _ = _task_inertia_root(self.model, state.q, state.J)
+        Lambda = _task_inertia(self.model, state.q, state.J)
         F = _hybrid_servo(err.ref[2], err.E, err.Ed, self.gains, self.K_e, int_E)
         qdd_0 = _posture_acceleration(state.q, state.qd, ref.q_d, self.kp0, self.kv0)
         return _operational_space(self.model, state.q, state.qd, state.J, state.Jdot_qd, F, err.force, qdd_0, Lambda)
 
     def integral_map(self, state, ref, err):
         """B = J^T Lambda diag(ki / K_e): the integral enters F' as Ki int E / K_e."""
-        Lambda, _ = _task_inertia_root(self.model, state.q, state.J)
+        Lambda = _task_inertia(self.model, state.q, state.J)
         return (state.J.T @ Lambda) * (self.gains.ki / self.K_e)
 
     def freeze(self, E, saturated, tau):

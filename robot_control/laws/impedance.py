@@ -47,7 +47,7 @@ import numpy as np
 from robot_control import validation
 from robot_control.laws.base import Errors, Law
 from robot_control.laws.operational_space import (_inertia_roots, _inverse_task_inertia, _operational_space,
-                                                  _posture_acceleration, _task_inertia_root, check_law_fits,
+                                                  _posture_acceleration, _task_inertia, check_law_fits,
                                                   check_task_dimension, posture_gains)
 from robot_control.param_table import Row, gt, gt_eq, size
 from robot_control.validation import ArgumentError
@@ -62,13 +62,13 @@ NYQUIST_FRACTION = 0.1
 
 
 def rotation_mask(axes):
-    """(m,) bool: True on the orientation axes among the task `axes`."""
-    return np.array([a in ROTATION_AXES for a in axes], dtype=bool)
+    """m bools, a tuple: True on the orientation axes among the task `axes`."""
+    return tuple(a in ROTATION_AXES for a in axes)
 
 
-def _damping(root, K, zeta):
-    """D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2), (m, m): root = Lambda^1/2 (m, m), K (m,)."""
-    k = np.sqrt(K)
+def _damping(root, k, zeta):
+    """D = zeta (Lambda^1/2 K^1/2 + K^1/2 Lambda^1/2), (m, m): root = Lambda^1/2 (m, m), k = K^1/2 (m,) the
+    diagonal of K^1/2."""
     return zeta * (root * k + k[:, None] * root)
 
 
@@ -96,11 +96,14 @@ def check_task_axes(name, values, axes):
 
 
 def _bounded(E, rotation, limits):
-    """E with its translation part and its rotation part (mask `rotation`) each scaled down to a norm of
-    at most limits = (m, rad)."""
-    sq = E * E
-    rot = float(sq @ rotation)
-    trans = float(sq.sum()) - rot
+    """E with its translation part and its rotation part (`rotation`: m bools, True on the rotation axes)
+    each scaled down to a norm of at most limits = (m, rad)."""
+    trans = rot = 0.0
+    for e, on_rotation in zip(E.tolist(), rotation):      # m <= 6 floats: cheaper than numpy's reductions
+        if on_rotation:
+            rot += e * e
+        else:
+            trans += e * e
     scale_t = limits[0] / math.sqrt(trans) if trans > limits[0] ** 2 else 1.0
     scale_r = limits[1] / math.sqrt(rot) if rot > limits[1] ** 2 else 1.0
     if scale_t == 1.0 and scale_r == 1.0:
@@ -110,8 +113,10 @@ def _bounded(E, rotation, limits):
 
 def _impedance(model, q, qd, J, Jdot_qd, E, Ed, xdd_d, K, D, F_ff, qdd_0, Lambda):
     """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (xdd_d - Jdot qd - J qdd_0) + K E + D Ed + F_ff); checked
-    arrays, J full rank, Lambda its task inertia, D (m, m)."""
-    return _operational_space(model, q, qd, J, Jdot_qd, xdd_d, K * E + D @ Ed + F_ff, qdd_0, Lambda)
+    arrays, J full rank, Lambda its task inertia, D (m, m), F_ff (m,) or None (no feed-forward wrench)."""
+    wrench = K * E + D @ Ed
+    return _operational_space(model, q, qd, J, Jdot_qd, xdd_d, wrench if F_ff is None else wrench + F_ff, qdd_0,
+                              Lambda)
 
 
 def axis_values(name, values, axes):
@@ -147,14 +152,17 @@ def impedance(model, q, qd, x_d, xd_d, xdd_d, stiffness, damping_ratio=1.0, damp
     x_d, xd_d, xdd_d = validation.vectors(m, x_d=x_d, xd_d=xd_d, xdd_d=xdd_d)
     K = axis_values('stiffness', stiffness, model.task_axes)
     ratio = validation.scalar('damping_ratio', damping_ratio, nonnegative=True)
-    F_ff = np.zeros(m) if F_ff is None else validation.vector('F_ff', F_ff, m)
+    F_ff = None if F_ff is None else validation.vector('F_ff', F_ff, m)
     q_posture = q if q_posture is None else validation.vector('q_posture', q_posture, n)
     kp0, kv0 = posture_gains(k_posture, n)
     limits = validation.limit_vector('max_pose_error', max_pose_error, 2)
     x, J, Jdot_qd = model._task(q, qd)
     check_task_dimension(J)
-    Lambda, root = _task_inertia_root(model, q, J)
-    D = _damping(root, K, ratio) if damping is None else np.diag(axis_values('damping', damping, model.task_axes))
+    if damping is None:
+        Lambda, root = _task_inertia(model, q, J, root=True)
+        D = _damping(root, np.sqrt(K), ratio)
+    else:
+        Lambda, D = _task_inertia(model, q, J), np.diag(axis_values('damping', damping, model.task_axes))
     E = _bounded(model._task_difference(x_d, x), rotation_mask(model.task_axes), limits)
     qdd_0 = _posture_acceleration(q, qd, q_posture, kp0, kv0)
     return validation.result('tau', _impedance(model, q, qd, J, Jdot_qd, E, xd_d - J @ qd, xdd_d, K, D, F_ff, qdd_0,
@@ -230,6 +238,7 @@ class Impedance(Law):
             check_task_axes(name, getattr(params, name), model.task_axes)
         stiffness = params.cartesian_stiffness
         self.K = axis_values('cartesian_stiffness', stiffness or DESIGN_STIFFNESS, model.task_axes)
+        self.K_root = np.sqrt(self.K)
         explicit = params.cartesian_damping
         self.D = np.diag(axis_values('cartesian_damping', explicit, model.task_axes)) if explicit else None
         self.ratio = params.cartesian_damping_ratio
@@ -251,10 +260,15 @@ class Impedance(Law):
 
     def torque(self, state, ref, err, int_E):
         w, V = _inverse_task_inertia(self.model, state.q, state.J)
-        Lambda, root = _inertia_roots(w, V)
-        K = self.K if self.w_max is None else _capped_stiffness(self.K, (V * V) @ w, self.w_max)
-        D = _damping(root, K, self.ratio) if self.D is None else self.D
-        F_ff = ref.wrench if ref.wrench is not None else np.zeros(self.model.task_dim)
+        K, K_root = self.K, self.K_root
+        if self.w_max is not None:
+            K = _capped_stiffness(K, (V * V) @ w, self.w_max)
+            K_root = np.sqrt(K)
+        if self.D is None:
+            Lambda, root = _inertia_roots(w, V, root=True)
+            D = _damping(root, K_root, self.ratio)
+        else:
+            Lambda, D = _inertia_roots(w, V), self.D
         qdd_0 = _posture_acceleration(state.q, state.qd, ref.q_d, self.kp0, self.kv0)
         return _impedance(self.model, state.q, state.qd, state.J, state.Jdot_qd, err.E, err.Ed, err.ref[2], K, D,
-                          F_ff, qdd_0, Lambda)
+                          ref.wrench, qdd_0, Lambda)

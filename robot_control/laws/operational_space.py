@@ -21,7 +21,7 @@ from robot_control import validation
 from robot_control.validation import ArgumentError
 
 #: largest accepted condition number of J M^-1 J^T (the inverse task inertia), from its eigenvalues
-#: (_task_inertia_root): their rounding is about 1e-16 of the largest, so a singular J shows a smallest
+#: (_task_inertia): their rounding is about 1e-16 of the largest, so a singular J shows a smallest
 #: one below 1e-14 of it (a bound of 1e9 on cond(J), squared, would drown in rounding); the mass weighting
 #: alone spreads the iiwa's (a light last link) over 1e3 to 1e4
 MAX_INERTIA_COND = 1e14
@@ -53,25 +53,25 @@ def _inverse_task_inertia(model, q, J):
     return w, V
 
 
-def _inertia_roots(w, V):
-    """Lambda = V diag(1/w) V^T and Lambda^1/2 = V diag(w^-1/2) V^T, each (m, m) symmetric positive definite,
-    from the eigendecomposition (w, V) of Lambda^-1 (_inverse_task_inertia)."""
-    root = V / np.sqrt(w)
-    return root @ root.T, root @ V.T
+def _inertia_roots(w, V, root=False):
+    """Lambda = R R^T, R = V diag(w^-1/2), (m, m) symmetric positive definite, from the eigendecomposition
+    (w, V) of Lambda^-1 (_inverse_task_inertia); with `root`, (Lambda, Lambda^1/2 = R V^T)."""
+    R = V / np.sqrt(w)
+    Lambda = R @ R.T
+    return (Lambda, R @ V.T) if root else Lambda
 
 
-def _task_inertia_root(model, q, J):
-    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2) and Lambda^1/2, each (m, m)
-    symmetric positive definite, from one eigendecomposition of J M^-1 J^T; ArgumentError naming q when
-    J(q) is (nearly) singular (_inverse_task_inertia)."""
-    return _inertia_roots(*_inverse_task_inertia(model, q, J))
+def _task_inertia(model, q, J, root=False):
+    """The operational-space inertia Lambda = (J M^-1 J^T)^-1 (kg, kg m^2), (m, m), from one
+    eigendecomposition of J M^-1 J^T (_inverse_task_inertia); with `root`, (Lambda, Lambda^1/2)."""
+    return _inertia_roots(*_inverse_task_inertia(model, q, J), root=root)
 
 
 def _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda):
     """tau (n,) = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e), Lambda = (J M^-1 J^T)^-1.
 
     Checked arrays: q, qd, qdd_0 (n,); J (m, n); Jdot_qd, F (m/s^2), f_e (N) (m,); Lambda (m, m) the task
-    inertia (_task_inertia_root, which refuses a singular J)."""
+    inertia (_task_inertia, which refuses a singular J)."""
     return model._inverse_dynamics(q, qd, qdd_0) + J.T @ (Lambda @ (F - Jdot_qd - J @ qdd_0) + f_e)
 
 
@@ -111,5 +111,5 @@ def operational_space(model, q, qd, F, f_e, qdd_0=None):
     qdd_0 = np.zeros(model.n) if qdd_0 is None else validation.vector('qdd_0', qdd_0, model.n)
     x, J, Jdot_qd = model._task(q, qd)
     check_task_dimension(J)
-    Lambda, _ = _task_inertia_root(model, q, J)
+    Lambda = _task_inertia(model, q, J)
     return validation.result('tau', _operational_space(model, q, qd, J, Jdot_qd, F, f_e, qdd_0, Lambda))

@@ -322,8 +322,9 @@ class UrdfModel(RobotModel):
         """x_d - x on the position axes; log3(R_d R^T) on the orientation axes (world axes, rad)."""
         if self.task_space == 'position':
             return x_d - x
-        rotation = pin.log3(pin.exp3(x_d[3:]) @ pin.exp3(x[3:]).T)
-        return np.concatenate([x_d[:3] - x[:3], rotation])
+        difference = x_d - x
+        difference[3:] = pin.log3(pin.exp3(x_d[3:]) @ pin.exp3(x[3:]).T)
+        return difference
 
     @property
     def base_frame(self):
@@ -357,7 +358,7 @@ class UrdfModel(RobotModel):
         """A frame's velocity or acceleration in the task space: linear (3,), then (pose) angular (3,)."""
         if self.task_space == 'position':
             return motion.linear.copy()
-        return np.concatenate([motion.linear, motion.angular])
+        return motion.vector.copy()                  # Pinocchio's order: linear, then angular
 
     def _columns(self, jac):
         """Columns of a (k, nv) Jacobian in joint order, (k, n) (a new array)."""

@@ -14,7 +14,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.core.tick import ControllerCore
 from robot_control.laws import impedance
 from robot_control.laws.impedance import DESIGN_STIFFNESS, _damping, max_frequency
-from robot_control.laws.operational_space import _task_inertia_root
+from robot_control.laws.operational_space import _task_inertia
 from robot_control.models import for_scenario, make_model
 
 Q0 = np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0])
@@ -69,7 +69,7 @@ def test_on_a_cartesian_robot_the_designed_damping_is_critical():
     model = make_model('cartesian_xyz')
     M = model.M(np.zeros(3))
     K = np.array([1000.0, 400.0, 2500.0])
-    np.testing.assert_allclose(_damping(np.sqrt(M), K, 1.0), np.diag(2.0 * np.sqrt(np.diag(M) * K)), rtol=1e-12)
+    np.testing.assert_allclose(_damping(np.sqrt(M), np.sqrt(K), 1.0), np.diag(2.0 * np.sqrt(np.diag(M) * K)), rtol=1e-12)
     q, qd = np.array([0.1, 0.2, 0.3]), np.array([0.5, -0.2, 0.1])
     x_d = np.array([0.15, 0.2, 0.25])
     tau = impedance(model, q, qd, x_d, np.zeros(3), np.zeros(3), (1000.0, 400.0, 2500.0, 0, 0, 0))
@@ -82,14 +82,15 @@ def test_the_task_inertia_and_its_root_come_from_one_eigendecomposition(iiwa):
     """Lambda = (J M^-1 J^T)^-1 and its symmetric square root; a singular Jacobian is refused naming q."""
     q = np.array(Q0)
     J = iiwa.J(q)
-    Lambda, root = _task_inertia_root(iiwa, q, J)
+    Lambda, root = _task_inertia(iiwa, q, J, root=True)
+    np.testing.assert_array_equal(_task_inertia(iiwa, q, J), Lambda)
     np.testing.assert_allclose(Lambda, np.linalg.inv(J @ np.linalg.inv(iiwa.M(q)) @ J.T), rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(root @ root, Lambda, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(root, root.T, atol=1e-12)
     planar = make_model('planar_two_link')
     stretched = np.array([0.3, 0.0])
     with pytest.raises(ValueError, match='^q: task Jacobian singular'):
-        _task_inertia_root(planar, stretched, planar.J(stretched))
+        _task_inertia(planar, stretched, planar.J(stretched))
     with pytest.raises(ValueError, match='^q: task Jacobian singular'):
         impedance(planar, stretched, np.zeros(2), planar.fk(stretched), np.zeros(2), np.zeros(2), (1000.0,) * 6)
 

@@ -16,12 +16,16 @@ import sys
 import numpy as np
 import pytest
 
+from robot_control.laws import LAWS
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 #: the keys every results.json carries (the README table and the targets read them)
 KEYS = (
     'law_us_ct_2dof_median', 'law_us_ct_2dof_p99', 'law_us_ct_7dof_median', 'law_us_hybrid_7dof_median',
     'law_us_impedance_7dof_median',
+    *(f'law_us_{case}_checked_{stat}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')
+      for stat in ('median', 'p99')),
     *(f'law_vs_rnea_{case}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')),
     'mr_ct_7dof_us_median', 'pin_rnea_us_median', 'speedup_vs_modern_robotics',
     'lockstep_steps_per_s_polar', 'lockstep_steps_per_s_iiwa', 'pingpong_roundtrips_per_s',
@@ -137,6 +141,25 @@ def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
     for run in bench_ros.REALTIME_RUNS:
         assert bench.TARGETS[f'realtime_rtf_{run}'] == bench.TARGETS['realtime_rtf']
     assert bench.TARGETS[f'realtime_missed_vs_floor_{run}'] == bench.TARGETS['realtime_missed_vs_floor']
+
+
+def test_law_ticks_run_the_controllers_laws():
+    """B1's per-tick cases call the Law each ControllerConfig builds (errors, then torque), once per input here:
+    finite torques equal to the law's public function on the same inputs, so the figures time the real law."""
+    from benchmarks import bench
+    cases = bench.law_cases(3)
+    names = {'ct_2dof': 'computed_torque', 'ct_7dof': 'computed_torque', 'hybrid_7dof': 'hybrid',
+             'impedance_7dof': 'impedance'}
+    assert set(names) == set(bench.LAWS)
+    for case, name in names.items():
+        tick, inputs = cases[case]
+        public, checked = cases[f'{case}_checked']
+        assert type(tick.law) is LAWS[name] and public.__name__ == name and len(inputs) == len(checked) == 3
+        for args, public_args in zip(inputs, checked):
+            tick.load(*args)
+            tau = tick(*args)
+            assert tau.shape == (tick.law.model.n,) and np.isfinite(tau).all(), case
+            np.testing.assert_allclose(tau, public(*public_args), rtol=0, atol=1e-12, err_msg=case)
 
 
 def test_law_costs_are_held_to_their_ratio_to_rnea():
