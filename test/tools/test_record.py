@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -338,8 +339,8 @@ def test_stop_writes_what_dds_delivered_but_the_executor_had_not_handed_over(any
         rig.wait_matched()
         for i in range(200):
             rig.pubs['joint_states'].publish(joint_state(i))
-        time.sleep(0.3)                                  # delivered by DDS; no spin: no callback ran
-        assert received(recorder) == 0
+        assert rig.pubs['joint_states'].wait_for_all_acked(Duration(seconds=30))   # delivered by DDS (acknowledged)
+        assert received(recorder) == 0                   # no spin: no callback ran
     seq = [m.header.stamp.nanosec // 1000 for _, m in read_bag(bag)[absolute('joint_states')]]
     assert seq == list(range(200))
 
@@ -354,18 +355,24 @@ def test_stop_records_nothing_received_after_it_was_called(any_rig, tmp_path):
     def tick():
         pub.publish(joint_state(len(sent)))
         sent.append(time.time_ns())
-    clock = rig.rec_node.get_clock()
     recorder = Recorder(rig.rec_node, tmp_path / 'bag', ['joint_states:sensor_msgs/msg/JointState']).start()
     rig.wait_matched()
     rig.pub_node.create_timer(0.0005, tick)
-    assert spin_until(rig.executor, lambda: received(recorder) >= 200, 10.0)
-    t_stop = clock.now().nanoseconds
+    assert spin_until(rig.executor, lambda: received(recorder) >= 200, 30.0)
     t0 = time.monotonic()
     count = recorder.stop()[absolute('joint_states')]
-    assert time.monotonic() - t0 < 0.5
+    # it returns (a bound generous for a busy machine); a stop chasing the publisher would take messages
+    # received after the call, which the check below refuses
+    assert time.monotonic() - t0 < 10.0
     msgs = read_bag(tmp_path / 'bag')[absolute('joint_states')]
-    assert len(msgs) == count >= 200 and msgs[-1][0] <= t_stop + 50_000_000   # stamped on handing over
+    assert len(msgs) == count >= 200
     assert [m.header.stamp.nanosec // 1000 for _, m in msgs] == list(range(count))
+    # nothing received after the call: the bag holds joint_state(0 .. count-1), and the last of them was
+    # received after its publish call began, so after the call before it had returned (sent[count - 2]);
+    # that must not be later than the stop (the bag's times are those of handing over, which a busy
+    # machine delays: not the measure)
+    until = recorder._until_ns          # when stop() was called, on the reception clock (system time)
+    assert sent[count - 2] <= until
     assert len(sent) > count             # the publisher went on meanwhile
 
 
@@ -376,7 +383,7 @@ def test_untyped_topic_waits_boundedly_then_records_once_it_appears(rig, tmp_pat
     t0 = time.monotonic()
     with recorder:
         waited = time.monotonic() - t0
-        assert 0.3 <= waited < 3.0
+        assert 0.3 <= waited < 10.0     # bounded (generously: a busy machine is slower), not for ever
         assert recorder.pending == [absolute('joint_states'), absolute('late_topic')]
         rig.publisher('late_topic', Float64MultiArray)  # appears after start(): the timer picks it up
         assert spin_until(rig.executor, lambda: recorder.subscribed == [absolute('late_topic')], 10.0)
@@ -596,8 +603,10 @@ def test_cli_records_for_duration_and_exits_zero(ticker, tmp_path):
     assert seq == list(range(seq[0], seq[0] + len(seq)))  # consecutive: nothing lost once matched
     for (_, got), i in zip(msgs, seq):
         check_joint_state(got, joint_state(i))
+    # the bag's times are those of handing over: the last ones at the stop, which a busy machine may make
+    # late; the margin is generous, and a recorder that ignored --duration would not have stopped at all
     span_s = (msgs[-1][0] - msgs[0][0]) * 1e-9
-    assert span_s <= duration + 0.3, out
+    assert span_s <= duration + 2.0, out
 
 
 @pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGINT])
