@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -105,8 +106,14 @@ class Robot:
         return self.commands[stamp_ns], self.references[stamp_ns], self.errors[stamp_ns]
 
     def send_until(self, executor, publisher, msg, predicate):
+        """Publish `msg` once, and spin until predicate(). Not re-published: a second trajectory replaces the
+        first, and a busy machine takes any fixed time to hand a message over; the controller's reliable
+        subscription has it once the publisher's samples are acknowledged (after it matched: ft_sensor/wrench
+        is subscribed only while the law reads the measured force)."""
+        assert spin_until(executor, lambda: publisher.get_subscription_count() >= 1), 'no subscription matched'
         publisher.publish(msg)
-        assert spin_until(executor, predicate, every=0.25, action=lambda: publisher.publish(msg))
+        assert publisher.wait_for_all_acked(Duration(seconds=DEADLINE)), 'not acknowledged by the controller'
+        assert spin_until(executor, predicate)
 
 
 @contextlib.contextmanager

@@ -32,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # Nodes live in a namespace of their own so that anything else on the domain cannot leak in.
 NS = f'/rec_test_{os.getpid()}'
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+WAIT = 30.0   # s of wall time a condition may take: generous, a busy machine only waits longer
 
 
 # ------------------------------------------------------------------ helpers
@@ -148,7 +149,7 @@ class Rig:
         self.pubs[topic] = self.pub_node.create_publisher(cls, topic, qos)
         return self.pubs[topic]
 
-    def wait_matched(self, timeout=10.0):
+    def wait_matched(self, timeout=WAIT):
         assert spin_until(self.executor, lambda: all(p.get_subscription_count() >= 1 for p in self.pubs.values()),
                           timeout), {t: p.get_subscription_count() for t, p in self.pubs.items()}
 
@@ -218,7 +219,7 @@ def test_records_four_topics_with_exact_contents(rig, tmp_path):
                 rig.pubs[topic].publish(msg)
                 sent[topic].append(msg)
             rig.executor.spin_once(timeout_sec=0.0)
-        assert spin_until(rig.executor, lambda: received(recorder) == K * len(SOURCES), 10.0), recorder.counts
+        assert spin_until(rig.executor, lambda: received(recorder) == K * len(SOURCES), WAIT), recorder.counts
     t_after = clock.now().nanoseconds
     assert recorder.counts == {absolute(t): K for t in SOURCES}
 
@@ -265,7 +266,7 @@ def test_bag_is_self_describing_and_hashes_match_the_graph(rig, tmp_path):
         rig.wait_matched()
         rig.pubs['ft_sensor/wrench'].publish(wrench(3))
         rig.pubs[DIAG].publish(diagnostics(4))
-        assert spin_until(rig.executor, lambda: received(recorder) == 2, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 2, WAIT)
         announced = {t: {str(i.topic_type_hash) for i in rig.rec_node.get_publishers_info_by_topic(t)}
                      for t in (absolute('ft_sensor/wrench'), DIAG)}
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
@@ -289,7 +290,7 @@ def test_definitions_from_installed_msg_files_when_typestore_lacks_them(rig, tmp
     with Recorder(rig.rec_node, bag, ['joint_states'], typestore=empty) as recorder:
         rig.wait_matched()
         rig.pubs['joint_states'].publish(joint_state(7))
-        assert spin_until(rig.executor, lambda: received(recorder) == 1, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 1, WAIT)
     jazzy = get_typestore(Stores.ROS2_JAZZY)
     assert empty.hash_rihs01('sensor_msgs/msg/JointState') == jazzy.hash_rihs01('sensor_msgs/msg/JointState')
     check_joint_state(read_bag(bag)[absolute('joint_states')][0][1], joint_state(7))
@@ -302,7 +303,7 @@ def test_sqlite3_storage(rig, tmp_path):
         rig.wait_matched()
         for i in range(5):
             rig.pubs['effort_controller/commands'].publish(commands(i))
-        assert spin_until(rig.executor, lambda: received(recorder) == 5, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 5, WAIT)
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['storage_identifier'] == 'sqlite3' and (bag / 'bag.db3').is_file()
     msgs = read_bag(bag)[absolute('effort_controller/commands')]
@@ -322,7 +323,7 @@ def test_bursts_are_recorded_complete_and_in_order(any_rig, tmp_path):
         for start in range(0, N, BURST):
             for i in range(start, start + BURST):
                 rig.pubs['joint_states'].publish(joint_state(i))
-            assert spin_until(rig.executor, lambda: received(recorder) == start + BURST, 10.0), received(recorder)
+            assert spin_until(rig.executor, lambda: received(recorder) == start + BURST, WAIT), received(recorder)
         rate = N / (time.perf_counter() - t0)
     seq = [m.header.stamp.nanosec // 1000 for _, m in read_bag(bag)[absolute('joint_states')]]
     assert seq == list(range(N))
@@ -358,7 +359,7 @@ def test_stop_records_nothing_received_after_it_was_called(any_rig, tmp_path):
     recorder = Recorder(rig.rec_node, tmp_path / 'bag', ['joint_states:sensor_msgs/msg/JointState']).start()
     rig.wait_matched()
     rig.pub_node.create_timer(0.0005, tick)
-    assert spin_until(rig.executor, lambda: received(recorder) >= 200, 30.0)
+    assert spin_until(rig.executor, lambda: received(recorder) >= 200, WAIT)
     t0 = time.monotonic()
     count = recorder.stop()[absolute('joint_states')]
     # it returns (a bound generous for a busy machine); a stop chasing the publisher would take messages
@@ -386,10 +387,10 @@ def test_untyped_topic_waits_boundedly_then_records_once_it_appears(rig, tmp_pat
         assert 0.3 <= waited < 10.0     # bounded (generously: a busy machine is slower), not for ever
         assert recorder.pending == [absolute('joint_states'), absolute('late_topic')]
         rig.publisher('late_topic', Float64MultiArray)  # appears after start(): the timer picks it up
-        assert spin_until(rig.executor, lambda: recorder.subscribed == [absolute('late_topic')], 10.0)
+        assert spin_until(rig.executor, lambda: recorder.subscribed == [absolute('late_topic')], WAIT)
         rig.wait_matched()
         rig.pubs['late_topic'].publish(commands(1))
-        assert spin_until(rig.executor, lambda: received(recorder) == 1, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 1, WAIT)
         assert recorder.pending == [absolute('joint_states')]
     info = bag_info(bag)
     assert info == {absolute('late_topic'): ('std_msgs/msg/Float64MultiArray', 1)}  # never seen: not in the bag
@@ -402,11 +403,11 @@ def test_all_topics_picks_up_new_topics_and_honours_exclude(rig, tmp_path):
                   discovery_period=0.05) as recorder:
         rig.publisher('joint_states', JointState)
         rig.publisher('ignored/wrench', WrenchStamped)
-        assert spin_until(rig.executor, lambda: absolute('ignored/wrench') in recorder.subscribed, 10.0)
+        assert spin_until(rig.executor, lambda: absolute('ignored/wrench') in recorder.subscribed, WAIT)
         rig.wait_matched()
         rig.pubs['joint_states'].publish(joint_state(1))
         rig.pubs['ignored/wrench'].publish(wrench(1))
-        assert spin_until(rig.executor, lambda: received(recorder) == 2, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 2, WAIT)
         assert '/rosout' not in recorder.subscribed and '/parameter_events' not in recorder.subscribed
     assert bag_info(bag) == {absolute('joint_states'): ('sensor_msgs/msg/JointState', 1),
                              absolute('ignored/wrench'): ('geometry_msgs/msg/WrenchStamped', 1)}
@@ -421,7 +422,7 @@ def test_best_effort_publisher_is_recorded_and_its_qos_stored(rig, tmp_path):
         rig.wait_matched()  # a reliable subscription would never match a best-effort publisher
         n = 0
         # best effort may drop in principle: publish until a few arrive, within a deadline
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + WAIT
         while received(recorder) < 3 and time.monotonic() < deadline:
             rig.pubs['ft_sensor/wrench'].publish(wrench(n))
             n += 1
@@ -443,7 +444,7 @@ def test_a_topic_typed_before_its_publisher_appears_gets_the_qos_it_offers(rig, 
         rig.wait_matched()
         for i in range(3):
             rig.pubs['ft_sensor/wrench'].publish(wrench(i))
-        assert spin_until(rig.executor, lambda: received(recorder) == 3, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 3, WAIT)
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['ros_distro'] == 'jazzy' and meta['version'] == 9
     (topic,) = meta['topics_with_message_count']
@@ -460,7 +461,7 @@ def test_context_manager_closes_the_bag_on_error(rig, tmp_path):
         with Recorder(rig.rec_node, bag, ['joint_states']) as recorder:
             rig.wait_matched()
             rig.pubs['joint_states'].publish(joint_state(0))
-            assert spin_until(rig.executor, lambda: received(recorder) == 1, 10.0)
+            assert spin_until(rig.executor, lambda: received(recorder) == 1, WAIT)
             1 / 0
     assert recorder.stop() == {absolute('joint_states'): 1}  # idempotent
     assert len(read_bag(bag)[absolute('joint_states')]) == 1
@@ -473,7 +474,7 @@ def test_stop_after_context_shutdown_still_closes_the_bag(ros_context, tmp_path)
     recorder = Recorder(r.rec_node, tmp_path / 'bag', ['joint_states']).start()
     r.wait_matched()
     r.pubs['joint_states'].publish(joint_state(2))
-    assert spin_until(r.executor, lambda: received(recorder) == 1, 10.0)
+    assert spin_until(r.executor, lambda: received(recorder) == 1, WAIT)
     rclpy.try_shutdown(context=ros_context)  # e.g. Ctrl-C handled by rclpy before our stop()
     try:
         assert recorder.stop() == {absolute('joint_states'): 1}
@@ -622,7 +623,7 @@ def test_cli_signal_closes_a_readable_bag(ticker, tmp_path, signum):
                           or proc.poll() is not None, 30.0)
         assert proc.poll() is None
         first = state['i']
-        assert spin_until(executor, lambda: state['i'] >= first + 40, 10.0)
+        assert spin_until(executor, lambda: state['i'] >= first + 40, WAIT)
         proc.send_signal(signum)
         stopped = spin_until(executor, lambda: proc.poll() is not None, 20.0)
     finally:
