@@ -259,12 +259,15 @@ class Loop:
             self.procs.check_alive()
             time.sleep(min(0.02, max(deadline - time.monotonic(), 0.0)))
 
-    def outage(self, seconds):
-        """Take the link down for `seconds` s of wall time; (t_down_ns, t_up_ns) on CLOCK_MONOTONIC."""
+    def outage(self, seconds, until=None, timeout=60.0):
+        """Take the link down for `seconds` s of wall time, and on until predicate `until()` holds (at most
+        `timeout` s: TimeoutError); (t_down_ns, t_up_ns) on CLOCK_MONOTONIC."""
         t_down = time.monotonic_ns()
         self.net.link(False)
         try:
             self.run_for(seconds)
+            if until is not None:
+                self.wait_for(until, timeout, 'the outage to show what it must')
         finally:
             t_up = time.monotonic_ns()
             self.net.link(True)
