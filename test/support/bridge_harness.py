@@ -2,7 +2,8 @@
 
 The probe subscribes to everything the bridge publishes, can answer each state like a
 controller (lockstep handshake: the command carries the state's stamp) and calls the services.
-Spinning is always bounded by a wall-clock deadline.
+Spinning is always bounded by a wall-clock deadline, a generous one (WAIT): a test waits for a
+condition, and a machine busy with other work only makes the wait longer.
 """
 import time
 
@@ -23,6 +24,7 @@ from robot_control.ros.spin import make_executor
 from sim_bridge.bridge_node import CLOCK_QOS, SimBridge
 
 NS = 1_000_000_000
+WAIT = 30.0        # s of wall time a condition may take before a wait gives up
 
 
 def overrides(**params):
@@ -101,7 +103,7 @@ class Harness:
             self.close()
             raise
 
-    def spin_until(self, predicate, timeout=5.0):
+    def spin_until(self, predicate, timeout=WAIT):
         """Spin until predicate() is true or `timeout` s of wall time passed; returns predicate()."""
         deadline = time.monotonic() + timeout
         while not predicate():
@@ -110,7 +112,7 @@ class Harness:
             self.executor.spin_once(0.005)
         return True
 
-    def run_until(self, t_ns, timeout=10.0):
+    def run_until(self, t_ns, timeout=WAIT):
         """Spin until the probe has received the state stamped `t_ns` (or later)."""
         return self.spin_until(lambda: bool(self.probe.states) and self.probe.states[-1][0] >= t_ns, timeout)
 
@@ -123,7 +125,7 @@ class Harness:
         while time.monotonic() < deadline:
             self.executor.spin_once(max(0.0, min(0.005, deadline - time.monotonic())))
 
-    def call(self, client, request, timeout=5.0):
+    def call(self, client, request, timeout=WAIT):
         assert self.spin_until(client.service_is_ready, timeout), f'{client.srv_name} not available'
         future = client.call_async(request)
         assert self.spin_until(future.done, timeout), f'{client.srv_name} did not answer'
@@ -144,7 +146,7 @@ class Harness:
                     node.destroy_node()
 
 
-def run_lockstep(scenario, controller, ticks, timeout=30.0, executor='single', **params):
+def run_lockstep(scenario, controller, ticks, timeout=2 * WAIT, executor='single', **params):
     """A lockstep run in a fresh context: (stamps, q, qd, effort) arrays of the first `ticks`+1 states."""
     ctx = rclpy.Context()
     rclpy.init(context=ctx)

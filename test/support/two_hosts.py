@@ -259,12 +259,15 @@ class Loop:
             self.procs.check_alive()
             time.sleep(min(0.02, max(deadline - time.monotonic(), 0.0)))
 
-    def outage(self, seconds):
-        """Take the link down for `seconds` s of wall time; (t_down_ns, t_up_ns) on CLOCK_MONOTONIC."""
+    def outage(self, seconds, until=None, timeout=60.0):
+        """Take the link down for `seconds` s of wall time, and on until predicate `until()` holds (at most
+        `timeout` s: TimeoutError); (t_down_ns, t_up_ns) on CLOCK_MONOTONIC."""
         t_down = time.monotonic_ns()
         self.net.link(False)
         try:
             self.run_for(seconds)
+            if until is not None:
+                self.wait_for(until, timeout, 'the outage to show what it must')
         finally:
             t_up = time.monotonic_ns()
             self.net.link(True)
@@ -304,7 +307,8 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
     [[t_rx_ns, stamp_ns, effort...]], diagnostics [[t_rx_ns, stamp_ns, name, level, message, {key: value}]];
     t_rx = CLOCK_MONOTONIC, which all namespaces share, so the test process can put them beside the
     times it took the link down and up. Every sample is kept (reliable, a deep queue). `progress_path`:
-    {'states', 'commands', 'diagnostics': counts, 'stamp_ns': newest state stamp} every PROGRESS_PERIOD.
+    {'states', 'commands', 'diagnostics': counts, 'stamp_ns': newest state stamp, 'errors': statuses at ERROR}
+    every PROGRESS_PERIOD.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -343,6 +347,7 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
     def write_progress():
         counts = {k: len(v) for k, v in rec.items()}
         counts['stamp_ns'] = rec['states'][-1][1] if rec['states'] else None
+        counts['errors'] = sum(1 for d in rec['diagnostics'] if d[3] == 'ERROR')
         with open(progress_path + '.part', 'w') as f:
             json.dump(counts, f)
         os.replace(progress_path + '.part', progress_path)

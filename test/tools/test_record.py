@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -39,6 +40,7 @@ ROSBAG2_KEYS = {'version', 'storage_identifier', 'duration', 'starting_time', 'm
 ROSBAG2_TOPIC_KEYS = {'name', 'type', 'serialization_format', 'offered_qos_profiles', 'type_description_hash'}
 ROSBAG2_QOS_KEYS = {'history', 'depth', 'reliability', 'durability', 'deadline', 'lifespan', 'liveliness',
                     'liveliness_lease_duration', 'avoid_ros_namespace_conventions'}
+WAIT = 30.0   # s of wall time a condition may take: generous, a busy machine only waits longer
 
 
 # ------------------------------------------------------------------ helpers
@@ -155,7 +157,7 @@ class Rig:
         self.pubs[topic] = self.pub_node.create_publisher(cls, topic, qos)
         return self.pubs[topic]
 
-    def wait_matched(self, timeout=10.0):
+    def wait_matched(self, timeout=WAIT):
         assert spin_until(self.executor, lambda: all(p.get_subscription_count() >= 1 for p in self.pubs.values()),
                           timeout), {t: p.get_subscription_count() for t, p in self.pubs.items()}
 
@@ -225,7 +227,7 @@ def test_records_four_topics_with_exact_contents(rig, tmp_path):
                 rig.pubs[topic].publish(msg)
                 sent[topic].append(msg)
             rig.executor.spin_once(timeout_sec=0.0)
-        assert spin_until(rig.executor, lambda: received(recorder) == K * len(SOURCES), 10.0), recorder.counts
+        assert spin_until(rig.executor, lambda: received(recorder) == K * len(SOURCES), WAIT), recorder.counts
     t_after = clock.now().nanoseconds
     assert recorder.counts == {absolute(t): K for t in SOURCES}
 
@@ -274,7 +276,7 @@ def test_bag_is_self_describing_and_hashes_match_the_graph(rig, tmp_path):
         rig.wait_matched()
         rig.pubs['ft_sensor/wrench'].publish(wrench(3))
         rig.pubs[DIAG].publish(diagnostics(4))
-        assert spin_until(rig.executor, lambda: received(recorder) == 2, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 2, WAIT)
         announced = {t: {str(i.topic_type_hash) for i in rig.rec_node.get_publishers_info_by_topic(t)}
                      for t in (absolute('ft_sensor/wrench'), DIAG)}
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
@@ -298,7 +300,7 @@ def test_definitions_from_installed_msg_files_when_typestore_lacks_them(rig, tmp
     with Recorder(rig.rec_node, bag, ['joint_states'], typestore=empty) as recorder:
         rig.wait_matched()
         rig.pubs['joint_states'].publish(joint_state(7))
-        assert spin_until(rig.executor, lambda: received(recorder) == 1, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 1, WAIT)
     jazzy = get_typestore(Stores.ROS2_JAZZY)
     assert empty.hash_rihs01('sensor_msgs/msg/JointState') == jazzy.hash_rihs01('sensor_msgs/msg/JointState')
     check_joint_state(read_bag(bag)[absolute('joint_states')][0][1], joint_state(7))
@@ -315,7 +317,7 @@ def test_bursts_are_recorded_complete_and_in_order(any_rig, tmp_path):
         for start in range(0, N, BURST):
             for i in range(start, start + BURST):
                 rig.pubs['joint_states'].publish(joint_state(i))
-            assert spin_until(rig.executor, lambda: received(recorder) == start + BURST, 10.0), received(recorder)
+            assert spin_until(rig.executor, lambda: received(recorder) == start + BURST, WAIT), received(recorder)
         rate = N / (time.perf_counter() - t0)
     seq = [m.header.stamp.nanosec // 1000 for _, m in read_bag(bag)[absolute('joint_states')]]
     assert seq == list(range(N))
@@ -332,8 +334,8 @@ def test_stop_writes_what_dds_delivered_but_the_executor_had_not_handed_over(any
         rig.wait_matched()
         for i in range(200):
             rig.pubs['joint_states'].publish(joint_state(i))
-        time.sleep(0.3)                                  # delivered by DDS; no spin: no callback ran
-        assert received(recorder) == 0
+        assert rig.pubs['joint_states'].wait_for_all_acked(Duration(seconds=30))   # delivered by DDS (acknowledged)
+        assert received(recorder) == 0                   # no spin: no callback ran
     seq = [m.header.stamp.nanosec // 1000 for _, m in read_bag(bag)[absolute('joint_states')]]
     assert seq == list(range(200))
 
@@ -348,18 +350,24 @@ def test_stop_records_nothing_received_after_it_was_called(any_rig, tmp_path):
     def tick():
         pub.publish(joint_state(len(sent)))
         sent.append(time.time_ns())
-    clock = rig.rec_node.get_clock()
     recorder = Recorder(rig.rec_node, tmp_path / 'bag', ['joint_states:sensor_msgs/msg/JointState']).start()
     rig.wait_matched()
     rig.pub_node.create_timer(0.0005, tick)
-    assert spin_until(rig.executor, lambda: received(recorder) >= 200, 10.0)
-    t_stop = clock.now().nanoseconds
+    assert spin_until(rig.executor, lambda: received(recorder) >= 200, WAIT)
     t0 = time.monotonic()
     count = recorder.stop()[absolute('joint_states')]
-    assert time.monotonic() - t0 < 0.5
+    # it returns (a bound generous for a busy machine); a stop chasing the publisher would take messages
+    # received after the call, which the check below refuses
+    assert time.monotonic() - t0 < 10.0
     msgs = read_bag(tmp_path / 'bag')[absolute('joint_states')]
-    assert len(msgs) == count >= 200 and msgs[-1][0] <= t_stop + 50_000_000   # stamped on handing over
+    assert len(msgs) == count >= 200
     assert [m.header.stamp.nanosec // 1000 for _, m in msgs] == list(range(count))
+    # nothing received after the call: the bag holds joint_state(0 .. count-1), and the last of them was
+    # received after its publish call began, so after the call before it had returned (sent[count - 2]);
+    # that must not be later than the stop (the bag's times are those of handing over, which a busy
+    # machine delays: not the measure)
+    until = recorder._until_ns          # when stop() was called, on the reception clock (system time)
+    assert sent[count - 2] <= until
     assert len(sent) > count             # the publisher went on meanwhile
 
 
@@ -370,13 +378,13 @@ def test_untyped_topic_waits_boundedly_then_records_once_it_appears(rig, tmp_pat
     t0 = time.monotonic()
     with recorder:
         waited = time.monotonic() - t0
-        assert 0.3 <= waited < 3.0
+        assert 0.3 <= waited < 10.0     # bounded (generously: a busy machine is slower), not for ever
         assert recorder.pending == [absolute('joint_states'), absolute('late_topic')]
         rig.publisher('late_topic', Float64MultiArray)  # appears after start(): the timer picks it up
-        assert spin_until(rig.executor, lambda: recorder.subscribed == [absolute('late_topic')], 10.0)
+        assert spin_until(rig.executor, lambda: recorder.subscribed == [absolute('late_topic')], WAIT)
         rig.wait_matched()
         rig.pubs['late_topic'].publish(commands(1))
-        assert spin_until(rig.executor, lambda: received(recorder) == 1, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 1, WAIT)
         assert recorder.pending == [absolute('joint_states')]
     info = bag_info(bag)
     assert info == {absolute('late_topic'): ('std_msgs/msg/Float64MultiArray', 1)}  # never seen: not in the bag
@@ -389,11 +397,11 @@ def test_all_topics_picks_up_new_topics_and_honours_exclude(rig, tmp_path):
                   discovery_period=0.05) as recorder:
         rig.publisher('joint_states', JointState)
         rig.publisher('ignored/wrench', WrenchStamped)
-        assert spin_until(rig.executor, lambda: absolute('ignored/wrench') in recorder.subscribed, 10.0)
+        assert spin_until(rig.executor, lambda: absolute('ignored/wrench') in recorder.subscribed, WAIT)
         rig.wait_matched()
         rig.pubs['joint_states'].publish(joint_state(1))
         rig.pubs['ignored/wrench'].publish(wrench(1))
-        assert spin_until(rig.executor, lambda: received(recorder) == 2, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 2, WAIT)
         assert '/rosout' not in recorder.subscribed and '/parameter_events' not in recorder.subscribed
     assert bag_info(bag) == {absolute('joint_states'): ('sensor_msgs/msg/JointState', 1),
                              absolute('ignored/wrench'): ('geometry_msgs/msg/WrenchStamped', 1)}
@@ -408,7 +416,7 @@ def test_best_effort_publisher_is_recorded_and_its_qos_stored(rig, tmp_path):
         rig.wait_matched()  # a reliable subscription would never match a best-effort publisher
         n = 0
         # best effort may drop in principle: publish until a few arrive, within a deadline
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + WAIT
         while received(recorder) < 3 and time.monotonic() < deadline:
             rig.pubs['ft_sensor/wrench'].publish(wrench(n))
             n += 1
@@ -432,7 +440,7 @@ def test_a_topic_typed_before_its_publisher_appears_gets_the_qos_it_offers(rig, 
         rig.wait_matched()
         for i in range(3):
             rig.pubs['ft_sensor/wrench'].publish(wrench(i))
-        assert spin_until(rig.executor, lambda: received(recorder) == 3, 10.0)
+        assert spin_until(rig.executor, lambda: received(recorder) == 3, WAIT)
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert meta['version'] == 9
     (topic,) = meta['topics_with_message_count']
@@ -449,7 +457,7 @@ def test_context_manager_closes_the_bag_on_error(rig, tmp_path):
         with Recorder(rig.rec_node, bag, ['joint_states']) as recorder:
             rig.wait_matched()
             rig.pubs['joint_states'].publish(joint_state(0))
-            assert spin_until(rig.executor, lambda: received(recorder) == 1, 10.0)
+            assert spin_until(rig.executor, lambda: received(recorder) == 1, WAIT)
             1 / 0
     assert recorder.stop() == {absolute('joint_states'): 1}  # idempotent
     assert len(read_bag(bag)[absolute('joint_states')]) == 1
@@ -462,7 +470,7 @@ def test_stop_after_context_shutdown_still_closes_the_bag(ros_context, tmp_path)
     recorder = Recorder(r.rec_node, tmp_path / 'bag', ['joint_states']).start()
     r.wait_matched()
     r.pubs['joint_states'].publish(joint_state(2))
-    assert spin_until(r.executor, lambda: received(recorder) == 1, 10.0)
+    assert spin_until(r.executor, lambda: received(recorder) == 1, WAIT)
     rclpy.try_shutdown(context=ros_context)  # e.g. Ctrl-C handled by rclpy before our stop()
     try:
         assert recorder.stop() == {absolute('joint_states'): 1}
@@ -592,8 +600,10 @@ def test_cli_records_for_duration_and_exits_zero(ticker, tmp_path):
     assert seq == list(range(seq[0], seq[0] + len(seq)))  # consecutive: nothing lost once matched
     for (_, got), i in zip(msgs, seq):
         check_joint_state(got, joint_state(i))
+    # the bag's times are those of handing over: the last ones at the stop, which a busy machine may make
+    # late; the margin is generous, and a recorder that ignored --duration would not have stopped at all
     span_s = (msgs[-1][0] - msgs[0][0]) * 1e-9
-    assert span_s <= duration + 0.3, out
+    assert span_s <= duration + 2.0, out
 
 
 @pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGINT])
@@ -609,7 +619,7 @@ def test_cli_signal_closes_a_readable_bag(ticker, tmp_path, signum):
                           or proc.poll() is not None, 30.0)
         assert proc.poll() is None
         first = state['i']
-        assert spin_until(executor, lambda: state['i'] >= first + 40, 10.0)
+        assert spin_until(executor, lambda: state['i'] >= first + 40, WAIT)
         proc.send_signal(signum)
         stopped = spin_until(executor, lambda: proc.poll() is not None, 20.0)
     finally:
