@@ -22,7 +22,8 @@ VENV_BIN = os.path.dirname(os.path.abspath(sys.executable))
 PKG = 'robot_control'
 NODES = {'controller_node': 'robot_control.ros.controller_node:main',
          'sim_bridge_node': 'sim_bridge.bridge_node:main'}
-TOOLS = {'record': 'robot_control.tools.record:main', 'plot': 'robot_control.tools.plot:main'}
+TOOLS = {'record': 'robot_control.tools.record:main', 'plot': 'robot_control.tools.plot:main',
+         'sweep': 'robot_control.tools.sweep:main'}
 ARTIFACTS = ('build', 'install', 'log')
 
 
@@ -91,7 +92,7 @@ def test_build_writes_nothing_into_the_repo(installed):
 
 def test_nodes_are_installed_where_ros2_run_looks(installed):
     prefix, _ = installed
-    scripts = {**NODES, **TOOLS}  # ros2 run robot_control record / plot, too
+    scripts = {**NODES, **TOOLS}  # ros2 run robot_control record / plot / sweep, too
     for node, target in scripts.items():
         path = prefix / 'lib' / PKG / node
         assert path.is_file() and os.access(path, os.X_OK), path
@@ -204,7 +205,7 @@ def test_every_config_yaml_is_installed(tmp_path):
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'pinocchio': 'pinocchio', 'pybullet': 'python3-pybullet-pip',
                'pybullet_data': 'python3-pybullet-pip', 'matplotlib': 'python3-matplotlib', 'yaml': 'python3-yaml',
                'rosbags': 'python3-rosbags-pip', 'modern_robotics': 'python3-modern-robotics-pip',
-               'mujoco': 'python3-mujoco-pip'}
+               'mujoco': 'python3-mujoco-pip', 'pyarrow': 'python3-pyarrow-pip'}
 
 
 def imported_modules():

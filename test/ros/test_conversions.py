@@ -85,7 +85,7 @@ def test_reader_reuses_its_buffers():
     (['theta1'], [0.0], [0.0], r"^name: missing controlled joints \['r'\]"),
     (['theta1', 'r', 'r'], [0.0, 0.1, 0.1], [0.0, 0.0, 0.0], "^name: duplicate joint 'r'"),
     (['theta1', 'r'], [0.0], [0.0, 0.0], r'^position: expected one entry per name \(2\), got 1'),
-    (['theta1', 'r'], [0.0, 0.1], [], r'^velocity: expected one entry per name \(2\), got 0'),
+    (['theta1', 'r'], [0.0, 0.1], [0.0], r'^velocity: expected one entry per name \(2\) or none, got 1'),
     (['theta1', 'r'], [0.0, math.nan], [0.0, 0.0], "^position: not finite for 'r': nan"),
     (['theta1', 'r'], [0.0, 0.1], [math.inf, 0.0], "^velocity: not finite for 'theta1': inf"),
     (['a', 'b'], [0.0, 0.1], [0.0, 0.0], r"^name: missing controlled joints \['theta1', 'r'\]"),

@@ -336,7 +336,8 @@ def joint_states(joints):
     Faults: nan, inf (in a controlled joint), huge (finite, 1e12..1.8e308), empty arrays, length
     (position or velocity not one per name), duplicate / missing / unknown names, extra unknown
     names carrying NaN, stamps far in the past (1 ns), future (2^31 - 1 s) or negative. A stamp of
-    None means: the publisher's running clock.
+    None means: the publisher's running clock. Positions under valid names with no velocities at all are
+    a valid state (a driver that sends none: the controller estimates qd), not a fault.
     """
     st = _strategies()
     names = name_variants(joints)
@@ -382,7 +383,10 @@ def joint_states(joints):
             stamp = (INT32_MAX, draw(st.integers(0, NS - 1)))
         elif kind == 'stamp_negative':
             stamp = (draw(st.integers(-2 ** 31, -1)), draw(st.integers(0, NS - 1)))
-        return Bad(kind, kind in JOINT_STATE_REJECT, name=nm, position=pos, velocity=vel, effort=eff, stamp=stamp)
+        # positions without velocities, under valid names: a driver that sends none (the controller estimates qd)
+        positions_only = kind in ('empty', 'length') and n > 0 and vel == [] and len(pos) == n
+        return Bad(kind, kind in JOINT_STATE_REJECT and not positions_only, name=nm, position=pos, velocity=vel,
+                   effort=eff, stamp=stamp)
     return build()
 
 
