@@ -849,6 +849,7 @@ def test_fuzz_controller_joint_states(polar_rig, bad):
 def test_fuzz_controller_joint_trajectory(polar_rig, bad):
     rig = polar_rig
     FUZZ_RECORD.setdefault('joint_trajectory', []).append(bad)
+    rig.valid_state()       # running: a trajectory is refused, without naming a field, while no state is fresh
     before = rig.counts()
     rig.pub['joint_trajectory'].publish(rh.trajectory_msg(bad, rig.stamp))
     assert rig.wait_change(before), f'neither accepted nor rejected: {bad!r}'
@@ -889,6 +890,7 @@ def _fuzz_target(rig, topic, bad, msg, accepted, reset):
     acceptance (`accepted()` counts them) answered by a finite command within the limits; then `reset` (a valid
     target back to holding) and the controller recovers."""
     FUZZ_RECORD.setdefault(topic, []).append(bad)
+    rig.valid_state()       # running: a target is refused, without naming a field, while no state is fresh
     before = (rig.node.rejected[topic], accepted())
     rig.pub[topic].publish(msg)
     assert spin_until(rig.ex, lambda: (rig.node.rejected[topic], accepted()) != before, WAIT), \

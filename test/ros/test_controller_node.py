@@ -118,7 +118,10 @@ class Robot:
 
 @contextlib.contextmanager
 def rig(context, **params):
-    """(executor, controller, robot) with `params` as parameter overrides; nodes destroyed after."""
+    """(executor, controller, robot) with `params` as parameter overrides; nodes destroyed after. The states
+    come from the test, one by one, with set-ups between them that a busy machine can stretch past the
+    default 0.5 s: state_timeout is 30 s unless a test sets it (the watchdog test does)."""
+    params = {'state_timeout': 30.0, **params}
     overrides = [Parameter(k, value=v) for k, v in params.items()]
     controller = ControllerNode(context=context, parameter_overrides=overrides)
     robot = None

@@ -420,7 +420,9 @@ def is_multicast_udp(frame):
 def capture(dev):
     """Count the multicast UDP frames on `dev`, sent and received, until SIGINT; then print
     '<n> packets captured' (root: a packet socket)."""
+    import signal
     import socket
+    signal.signal(signal.SIGTERM, signal.default_int_handler)   # the stop's SIGTERM too: the count is printed
     sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ALL))
     sock.bind((dev, 0))
     count = 0
