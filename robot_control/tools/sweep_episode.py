@@ -38,6 +38,7 @@ from robot_control.tools.demo import config_path, controller_params as experimen
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import make_loop
+from sim_bridge.engines import world_of_config
 
 NS = units.NS_PER_S
 SECTIONS = {'controller': '/**/controller', 'sim_bridge': '/**/sim_bridge'}
@@ -186,12 +187,6 @@ def episode_values(p, k):
 
 
 # -- one episode ---------------------------------------------------------------------------------------------
-def make_world(cfg):
-    """The bridge node's World for a BridgeConfig (sim_bridge.engines.world_of_config, without rclpy)."""
-    from sim_bridge.engines import world_of_config
-    return world_of_config(cfg)
-
-
 class Trace:
     """The per-tick arrays of an episode (preallocated, `ticks` rows)."""
 
@@ -232,7 +227,7 @@ def simulate(exp, ccfg, bvals, state_timeout, ticks):
     core = controller.core
     names = list(bcfg.joints)
     wrench_index = [TASK_AXES.index(a) for a in ccfg.model.task_axes] if controller.needs_wrench else None
-    world = make_world(bcfg)
+    world = world_of_config(bcfg)
     try:
         loop = make_loop(world, bcfg, publish_state=lambda in_loop, with_clock: 0, count_publishers=lambda: (1, 0),
                          publish_diagnostics=lambda: None, log=lambda level, text: None, clock=lambda: 0)

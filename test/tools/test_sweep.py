@@ -25,7 +25,7 @@ from robot_control.tools import demo_metrics, sweep, sweep_engine, sweep_episode
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import make_loop
-from sim_bridge.bridge_node import make_world
+from sim_bridge.engines import world_of_config
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 MASS_ERROR = {'sim_params.m': {'uniform': [1.6, 2.4]}}          # kg: +-20 % of the controller's 2 kg
@@ -61,7 +61,7 @@ def by_hand(p, k):
     bvals = bridge_params.TABLE.validate(values['sim_bridge'])
     ccfg, bcfg = ConfigBuilder()(cvals), bridge_params.build(bvals)
     controller = Controller(ccfg, cvals['state_timeout'])
-    world = make_world(bcfg)
+    world = world_of_config(bcfg)
     loop = make_loop(world, bcfg, publish_state=lambda *a: 0, count_publishers=lambda: (1, 0),
                      publish_diagnostics=lambda: None, log=lambda *a: None, clock=lambda: 0)
     loop.start()
