@@ -150,7 +150,7 @@ class LawTick:
     def __init__(self, config):
         from robot_control.laws import Reference
         self.law = law = config.control_law
-        n, k = config.n, len(config.force_axes) if law.uses_force else 0
+        n, k = config.n, len(law.force_task.force_axes)
         force = (np.zeros(k), np.zeros(k), np.zeros(k)) if k else (None, None, None)
         self.ref = Reference(np.zeros(n), np.zeros(n), np.zeros(n), *force)
 
@@ -232,8 +232,10 @@ def hybrid_cases(iiwa, states):
     from robot_control.gains import ServoGains
     from robot_control.laws import hybrid
     config = ControllerConfig(iiwa, law='hybrid', gains=ServoGains.uniform(3, KP, KV),
-                              force_gains=ServoGains.uniform(1, KP, KV), force_axes=('z',), k_e=(K_E,), x_e=(X_E,))
-    axes = config.force_mask
+                              force_gains=ServoGains.uniform(1, KP, KV),
+                              law_params={'force_axes': ('z',), 'k_e': (K_E,), 'x_e': (X_E,)})
+    axes = config.control_law.force_task.mask
+    posture = config.law_params.posture.gains(iiwa.n)
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d, F_D, 0.0, 0.0), None)
                                      for q, qd, q_d, qd_d, qdd_d, _ in states], np.where(axes, F_SENSED, 0.0))
     checked = []
@@ -241,7 +243,7 @@ def hybrid_cases(iiwa, states):
         f, fdot = np.zeros(3), np.zeros(3)
         f[axes], fdot[axes] = state.f, state.fdot
         checked.append((iiwa, q, qd, *iiwa._task_motion(q_d, qd_d, qdd_d), np.where(axes, F_D, 0.0), np.zeros(3),
-                        np.zeros(3), f, fdot, axes, K_E, config.gains, config.force_gains, q_d, config.posture_gains))
+                        np.zeros(3), f, fdot, axes, K_E, config.gains, config.force_gains, q_d, posture))
     return {'hybrid_7dof': (tick, inputs), 'hybrid_7dof_checked': (hybrid, checked)}
 
 
@@ -260,7 +262,7 @@ def impedance_cases(model, states):
     params = config.law_params
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d), None) for q, qd, q_d, qd_d, qdd_d, _ in states])
     checked = [(model, q, qd, *model._task_motion(q_d, qd_d, qdd_d), STIFFNESS, params.cartesian_damping_ratio,
-                None, None, q_d, config.posture_gains, params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
+                None, None, q_d, params.posture.gains(model.n), params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
     return {'impedance_7dof': (tick, inputs), 'impedance_7dof_checked': (impedance, checked)}
 
 

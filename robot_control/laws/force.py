@@ -5,10 +5,13 @@ Plant: m xdd + f = tau, f = k_e (x - x_e) the force the robot exerts on the envi
 v = (1/k_e)(fdd_d + kv Ef_dot + kp Ef), Ef = f_d - f; with fdd = k_e xdd the closed loop is
 Ef'' + kv Ef' + kp Ef = 0.
 """
+import dataclasses
+
 import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Errors, Law
+from robot_control.laws.force_task import ForceTask
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
@@ -60,14 +63,22 @@ def spring_force(x, xd, x_e, k_e, sign=0.0):
     return validation.result('f', f), validation.result('fdot', fdot)
 
 
+@dataclasses.dataclass(frozen=True)
+class ForceParams:
+    """The force law's parameters: its force setup (robot_control.laws.force_task.ForceTask)."""
+
+    force_task: ForceTask = ForceTask()
+
+
 class Force(Law):
     """The registry's 'force': the lecture's 1-DOF force servo on the model's one task axis."""
 
     name = 'force'
     tracks = 'task'
     needs_task_space = True
-    uses_force = True
     motion_servo = False
+    parts = (ForceTask,)
+    Params = ForceParams
 
     def __init__(self, config):
         super().__init__(config)
@@ -75,11 +86,12 @@ class Force(Law):
         if model.n != 1 or model.task_dim != 1:
             raise ArgumentError('law', f'force is the 1-DOF force servo; the model has {model.n} joints and '
                                        f'{model.task_dim} task axes (use hybrid)')
-        if len(config.force_axes) != 1:
+        task = self.force_task
+        if len(task.force_axes) != 1:
             raise ArgumentError('force_axes', f'law force needs its task axis {list(model.task_axes)}, '
-                                              f'got {list(config.force_axes)}')
+                                              f'got {list(task.force_axes)}')
         self.check_servo_gains('force_kp', config.force_gains, 1)
-        self.k_e = float(config.k_e[0])
+        self.k_e = float(task.k_e[0])
 
     @property
     def integral_dim(self):
@@ -87,7 +99,7 @@ class Force(Law):
 
     @property
     def reference_names(self):
-        return self.config.force_axes
+        return self.force_task.force_axes
 
     def integral_gains(self):
         if not self.config.integral:

@@ -46,9 +46,9 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Errors, Law
-from robot_control.laws.operational_space import (_inertia_roots, _inverse_task_inertia, _operational_space,
-                                                  _posture_acceleration, _task_inertia, check_law_fits,
-                                                  check_task_dimension, posture_gains)
+from robot_control.laws.operational_space import (Posture, _inertia_roots, _inverse_task_inertia,
+                                                  _operational_space, _posture_acceleration, _task_inertia,
+                                                  check_law_fits, check_task_dimension, posture_gains)
 from robot_control.param_table import Row, gt, gt_eq, size
 from robot_control.validation import ArgumentError
 
@@ -193,12 +193,13 @@ class ImpedanceParams:
     """The impedance law's parameters (PARAM_ROWS), checked: cartesian_stiffness six values >= 0 (x, y, z
     N/m; rx, ry, rz N m/rad) or empty for the design (module docstring); cartesian_damping six values >= 0
     (N s/m, N m s/rad) or empty for the design of cartesian_damping_ratio (>= 0); max_pose_error (m, rad) > 0,
-    the bounds of the task error."""
+    the bounds of the task error; posture: the null-space posture (robot_control.laws.operational_space)."""
 
     cartesian_stiffness: tuple = _DEFAULTS['cartesian_stiffness']
     cartesian_damping_ratio: float = _DEFAULTS['cartesian_damping_ratio']
     cartesian_damping: tuple = _DEFAULTS['cartesian_damping']
     max_pose_error: tuple = _DEFAULTS['max_pose_error']
+    posture: Posture = Posture()
 
     def __post_init__(self):
         set_ = functools.partial(object.__setattr__, self)
@@ -228,6 +229,7 @@ class Impedance(Law):
     motion_servo = False
     param_rows = PARAM_ROWS
     Params = ImpedanceParams
+    parts = (Posture,)
 
     def __init__(self, config):
         super().__init__(config)
@@ -245,7 +247,7 @@ class Impedance(Law):
         self.w_max = None if stiffness else max_frequency(config.control_period, self.ratio)
         self.rotation = rotation_mask(model.task_axes)
         self.limits = params.max_pose_error
-        self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
+        self.kp0, self.kv0 = params.posture.gains(model.n)
 
     @property
     def reference_names(self):

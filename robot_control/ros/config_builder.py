@@ -104,22 +104,18 @@ class ConfigBuilder:
         scenario = values['scenario']
         q0 = scenarios.get(scenario).q0 if scenario else None
         motion = motion_gains(values, model, design, q0)
-        k = len(values['force_axes'])
+        k = len(values['force_axes']) if law.uses_force else 0
         force = servo_gains(values, 'force_', k, design) if k else None
         config = ControllerConfig(
             model=model, law=values['law'], gains=motion, force_gains=force, integral=values['integral'],
             integral_limit=values['integral_limit'], integral_rest_velocity=values['integral_rest_velocity'],
             effort_limit=values['effort_limits'] or None,
-            joints=values['joints'] or None, force_axes=values['force_axes'],
-            k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
-            force_lead_time=values['force_lead_time'], posture_gains=(values['posture_kp'], values['posture_kv']),
-            move_time=values['move_time'], force_ramp_time=values['force_ramp_time'],
-            contact_max_travel=values['contact_max_travel'], contact_max_speed=values['contact_max_speed'],
+            joints=values['joints'] or None, move_time=values['move_time'],
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
             control_period=values['control_period'],
-            law_params={row.name: values[row.name] for row in law.param_rows},
+            law_params={row.name: values[row.name] for row in law.all_param_rows()},
             friction_compensation=friction_compensation.values_of(values),
             velocity_cutoff_hz=values['velocity_filter.cutoff_hz'])
         q_d = values['q_d']

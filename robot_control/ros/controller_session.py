@@ -112,7 +112,7 @@ class ControllerSession:
         self._publish(results, time.perf_counter_ns())
         values = snapshot.values
         self._payload.configure(values)
-        self._apply_references(values, changed=changed, old=old.values)
+        self._apply_references(values, changed=changed, old_axes=old.config.control_law.force_task.force_axes)
         self.allow_partial = values['allow_partial_joints_goal']
         if 'state_timeout' in changed:
             self._set_watchdog(values['state_timeout'])
@@ -278,11 +278,13 @@ class ControllerSession:
     def publish_diagnostics(self):
         self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self._node.get_clock().now().nanoseconds))
 
-    def _apply_references(self, values, initial=False, changed=(), old=None):
-        k = len(self._core.config.force_axes)
+    def _apply_references(self, values, initial=False, changed=(), old_axes=()):
+        """q_d and f_d of the parameters, when set, changed or (f_d) the law's force axes changed."""
+        axes = self._core.config.control_law.force_task.force_axes
+        k = len(axes)
         if values['q_d'] and (initial or 'q_d' in changed):
             self._core.set_goal(values['q_d'])
-        if k and (initial or 'f_d' in changed or values['force_axes'] != old['force_axes']):
+        if k and (initial or 'f_d' in changed or axes != old_axes):
             self._core.set_force_reference(values['f_d'] or np.zeros(k))
 
     def _set_ft_subscription(self, cfg):

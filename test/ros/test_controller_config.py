@@ -21,7 +21,7 @@ def test_every_law_builds_from_its_scenario_with_designed_gains(law):
     scenario = {'force': 'force_1dof', 'hybrid': 'hybrid_cartesian_xy', 'adaptive_computed_torque': 'iiwa'}.get(
         law, 'polar_two_link')
     cfg = ConfigBuilder()(_values(scenario=scenario, law=law))
-    sizes = LAWS[law].servo_sizes(cfg.model, cfg.force_axes)
+    sizes = LAWS[law].servo_sizes(cfg.model, cfg.control_law.force_task.force_axes)
     assert (cfg.gains is None) == (not sizes) and (not sizes or cfg.gains.n == sizes[0])
 
 
