@@ -261,8 +261,9 @@ def impedance_cases(model, states):
                                                                    'cartesian_damping_ratio': 1.0})
     params = config.law_params
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d), None) for q, qd, q_d, qd_d, qdd_d, _ in states])
+    posture = params.posture.gains(model.n)
     checked = [(model, q, qd, *model._task_motion(q_d, qd_d, qdd_d), STIFFNESS, params.cartesian_damping_ratio,
-                None, None, q_d, params.posture.gains(model.n), params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
+                None, None, q_d, posture, params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
     return {'impedance_7dof': (tick, inputs), 'impedance_7dof_checked': (impedance, checked)}
 
 

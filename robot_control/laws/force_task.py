@@ -24,7 +24,8 @@ FORCE_FEEDBACK = ('sensor', 'model')
 PARAM_ROWS = (
     Row('force_axes', 'string_array', (), "force-controlled task axes (names of the model's task axes, e.g. x)",
         [unique()]),
-    Row('k_e', 'double_array', (), 'environment stiffness per force axis, N/m', [size('force_axes', 'force axis'), gt(0)]),
+    Row('k_e', 'double_array', (), 'environment stiffness per force axis, N/m',
+        [size('force_axes', 'force axis'), gt(0)]),
     Row('x_e', 'double_array', (), 'environment location per force axis, m', [size('force_axes', 'force axis')]),
     Row('force_feedback', 'string', 'sensor',
         "contact force: 'sensor' (ft_sensor/wrench) or 'model' (f = k_e (x - x_e))", [one_of(FORCE_FEEDBACK)]),

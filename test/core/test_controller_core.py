@@ -1,4 +1,5 @@
 """ControllerCore (no ROS): per-tick torque = the library law, references, integral, switching, limits."""
+import dataclasses
 import math
 
 import numpy as np
@@ -8,8 +9,8 @@ from hypothesis import strategies as st
 
 from robot_control.core.tick import ControllerConfig, ControllerCore, measure_task
 from robot_control.gains import ServoGains, design
-from robot_control.laws import (Reference, State, computed_torque, force_1dof, hybrid, independent_joint, saturate,
-                                spring_force)
+from robot_control.laws import (LAWS, Reference, State, computed_torque, force_1dof, hybrid, independent_joint,
+                                saturate, spring_force)
 from robot_control.models import make_model
 from robot_control.trajectory import from_points, hold, point_to_point
 
@@ -491,6 +492,20 @@ def test_force_lead_time_uses_the_force_one_period_ahead(feedback):
                                     np.zeros(1), 1000.0, core.config.force_gains)[0]) > 0.01   # T matters here
 
 # -- configuration ---------------------------------------------------------------------------------------
+def test_the_configuration_holds_only_what_every_law_shares():
+    """What one law (or a group of laws: the force setup, the posture) reads is in its Params (law_params), not in
+    ControllerConfig: no field of the configuration is a parameter of a law."""
+    fields = {f.name for f in dataclasses.fields(ControllerConfig)}
+    assert fields == {'model', 'law', 'gains', 'force_gains', 'integral', 'integral_limit', 'integral_rest_velocity',
+                      'effort_limit', 'joints', 'move_time', 'control_period', 'trajectory_tolerance', 'goal_tolerance',
+                      'goal_time', 'stopped_velocity_tolerance', 'law_params', 'friction_compensation',
+                      'velocity_cutoff_hz'}
+    law_rows = {row.name for law in LAWS.values() for row in law.all_param_rows()}
+    assert {'force_axes', 'k_e', 'x_e', 'posture_kp', 'contact_max_travel'} <= law_rows
+    assert not fields & law_rows
+    assert [name for name, law in LAWS.items() if law.uses_force] == ['force', 'hybrid']
+
+
 @pytest.mark.parametrize('changes, match', [
     ({'law': 'pid'}, '^law: unknown'),
     ({'gains': ServoGains.uniform(3, 1.0, 1.0)}, '^kp: expected 2 gains'),
@@ -509,7 +524,7 @@ def test_force_lead_time_uses_the_force_one_period_ahead(feedback):
     ({'law': 'hybrid', 'law_params': {'posture_kp': -1.0}}, '^posture_kp:'),
     ({'law': 'impedance', 'gains': None, 'law_params': {'posture_kv': -1.0}}, '^posture_kv:'),
     ({'law': 'hybrid', 'law_params': {'force_lead_time': -0.001}}, '^force_lead_time:'),
-    ({'law_params': {'force_axes': ('x',)}}, r"^law_params: \['force_axes'\] are not parameters of law computed_torque"),
+    ({'law_params': {'force_axes': ('x',)}}, r"^law_params: \['force_axes'\] are not parameters of law computed"),
 ])
 def test_invalid_configurations_are_rejected_naming_the_parameter(changes, match):
     with pytest.raises(ValueError, match=match):

@@ -225,8 +225,9 @@ def test_hybrid_and_force_laws_saturate_and_recover():
 
     def run_hybrid(limit):
         cfg = ControllerConfig(model=model, law='hybrid', gains=PID.gains(2), force_gains=PID.gains(1),
-                               integral=True, effort_limit=list(limit), force_axes=('x',), k_e=[1000.0],
-                               x_e=[0.3], force_feedback='sensor', move_time=0.05, force_ramp_time=0.2)
+                               integral=True, effort_limit=list(limit), move_time=0.05,
+                               law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3],
+                                           'force_feedback': 'sensor', 'force_ramp_time': 0.2})
         core = ControllerCore(cfg)
         q, qd = np.array([0.305, 0.0]), np.zeros(2)
         f = np.array([5.0, 0.0])
@@ -257,8 +258,8 @@ def test_hybrid_and_force_laws_saturate_and_recover():
 
     def run_force(limit, fd=30.0):
         cfg = ControllerConfig(model=fmodel, law='force', force_gains=PID.gains(1), integral=True,
-                               effort_limit=[limit], force_axes=('x',), k_e=[1000.0], x_e=[0.1],
-                               force_feedback='sensor', force_ramp_time=0.05)
+                               effort_limit=[limit], law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.1],
+                                                                 'force_feedback': 'sensor', 'force_ramp_time': 0.05})
         core = ControllerCore(cfg)
         x, xd = np.array([0.102]), np.zeros(1)
         core.set_force_reference([2.0])

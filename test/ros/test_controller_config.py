@@ -132,6 +132,41 @@ def test_a_law_with_its_own_parameter_is_one_class_and_one_registry_entry(monkey
     assert ConfigBuilder()(_values(scenario='polar_two_link')).law_params is None     # computed torque: none
 
 
+def test_a_law_declaring_the_force_setup_gets_its_rows_once_and_reads_its_values(monkeypatch):
+    """The force setup (laws.force_task.ForceTask) is a part a law declares: its rows are in the law's rows and
+    listed once in the table however many laws declare it; the values reach the law as its force_task, fitted
+    to the model's task axes, and a law without it has no force axes whatever the parameters say."""
+    from robot_control.laws import Law
+    from robot_control.laws.force import ForceParams
+    from robot_control.laws.force_task import PARAM_ROWS, ForceTask
+
+    class Press(Law):
+        """tau = g(q) + J^T f_d on the force axes: a feed-forward press (no servo); its Params: the force law's."""
+        name, tracks, needs_task_space, motion_servo = 'press', 'task', True, False
+        parts, Params = (ForceTask,), ForceParams
+
+        def torque(self, state, ref, err, int_E):
+            return self.model._g(state.q) + state.J[self.force_task.mask].T @ ref.f_d
+
+    force_rows = [row.name for row in PARAM_ROWS]
+    assert Press.uses_force and [row.name for row in Press.all_param_rows()] == force_rows
+    monkeypatch.setitem(LAWS, 'press', Press)
+    rows, _ = params.TABLE.resolve()
+    names = rows.names()
+    assert len(names) == len(set(names)) and set(force_rows) <= set(names)
+    cfg = ConfigBuilder()(_values(scenario='hybrid_cartesian_xyz', law='press', force_axes=['z', 'x'],
+                                  k_e=[3000.0, 1000.0], x_e=[0.5, 0.25], force_feedback='model'))
+    task = cfg.control_law.force_task
+    assert task.force_axes == ('x', 'z') and task.force_feedback == 'model'             # in task-axis order
+    np.testing.assert_array_equal(task.k_e, [1000.0, 3000.0])
+    np.testing.assert_array_equal(task.x_e, [0.25, 0.5])
+    np.testing.assert_array_equal(task.mask, [True, False, True])
+    with pytest.raises(ParameterError, match=r"^k_e: expected 2 values"):
+        _values(scenario='hybrid_cartesian_xyz', law='press', force_axes=['z', 'x'], k_e=[1000.0], x_e=[0.5, 0.2])
+    joint = ConfigBuilder()(_values(scenario='hybrid_cartesian_xyz', law='computed_torque'))
+    assert joint.control_law.force_task.force_axes == () and joint.force_gains is None
+
+
 # -- your own arm: the task space by the arm, refusals naming the parameter ------------------------------------
 XARM = dict(model='urdf', urdf='xarm_description/urdf/xarm7.urdf', tip='link7',
             joints=[f'joint{i}' for i in range(1, 8)])
