@@ -121,9 +121,9 @@ def _law(name, core, counters):
     gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', cfg.gains),
                                                                                 ('force_gains', cfg.force_gains))
              if servo is not None for g in ('kp', 'kv', 'ki')]
+    axes = ','.join(cfg.control_law.force_task.force_axes)
     return (f'{name}: control law', level, message,
-            gains + [('law', cfg.law), ('force_axes', ','.join(cfg.control_law.force_task.force_axes)),
-                     ('integral', cfg.integral),
+            gains + [('law', cfg.law), ('force_axes', axes), ('integral', cfg.integral),
              ('velocity', counters.velocity_source),
              ('fallbacks', core.fallbacks),
              ('contact_trips', guard.trips if guard is not None else 0),

@@ -684,6 +684,19 @@ def test_switching_law_and_gains_at_run_time_is_bumpless(ros_context):
         np.testing.assert_allclose(after[3], independent_joint(q, qd, ref[1], ref[2], gains), rtol=0, atol=1e-12)
 
 
+def test_a_switch_to_a_force_law_takes_the_force_reference_of_f_d(ros_context):
+    """The force axes belong to the law's force setup: a joint law has none, so f_d waits for the switch to
+    hybrid, which starts its force reference from it (ramping from the force measured at the switch)."""
+    with rig(ros_context, scenario='hybrid_cartesian_xy', law='computed_torque', force_feedback='model', f_d=[5.0],
+             force_ramp_time=0.0, effort_limits=[200.0, 200.0]) as (ex, ctrl, robot):
+        robot.step(ex, ['x', 'y'], [0.3002, 0.1], [0.0, 0.0], T0_NS)
+        assert ctrl.core.force_target.tolist() == []
+        assert ctrl.set_parameters([Parameter('law', value='hybrid')])[0].successful
+        assert ctrl.core.force_target.tolist() == [5.0]
+        _, ref, _ = robot.step(ex, ['x', 'y'], [0.3002, 0.1], [0.0, 0.0], T0_NS + DT_NS)
+        assert ref[0] == ('x', 'y') and ref[1][0] == 5.0
+
+
 def test_q_d_parameter_moves_the_reference_from_the_current_one(ros_context):
     with rig(ros_context, **POLAR, move_time=0.02) as (ex, ctrl, robot):
         q = np.array([0.1, 0.5])
