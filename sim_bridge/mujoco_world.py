@@ -25,7 +25,7 @@ from robot_control.validation import ArgumentError
 from sim_bridge import mujoco_model
 from sim_bridge.disturbance import Disturbance
 from sim_bridge.joint_friction import JointFriction
-from sim_bridge.world import UNLIMITED_BRAKE, _check_travel, _resolve, _scenario, _whole_ns
+from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, resolve, scenario_of, whole_ns
 
 #: the brake's position time constant in steps (PyBullet's position motor: positionGain 0.1)
 BRAKE_STEPS = 10.0
@@ -56,15 +56,15 @@ class MujocoWorld:
                  surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None, friction=None):
         if gui:
             raise ArgumentError('gui', 'the MuJoCo world has no viewer')
-        self.scenario = _scenario(scenario)
-        self.dt_ns = _whole_ns(dt)
+        self.scenario = scenario_of(scenario)
+        self.dt_ns = whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
         self._tmp = tempfile.TemporaryDirectory(prefix='sim_bridge_mujoco_')
         try:
             if surface is not False and surface is not None and (
                     surface is not True or (self.scenario is not None and self.scenario.surface is not None)):
                 raise ArgumentError('surface', 'the MuJoCo world models no contact surface; set it False')
-            self._spec = _resolve(self.scenario, params, urdf, joints, q0, False, tip, surface_damping,
+            self._spec = resolve(self.scenario, params, urdf, joints, q0, False, tip, surface_damping,
                                   payload, self._tmp.name)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
             self.set_friction(friction)
@@ -102,7 +102,7 @@ class MujocoWorld:
 
     def _build(self, q0):
         """Start again from q0 at rest: t = 0, zero torque, brakes off."""
-        _check_travel(self._spec.joints, q0, self._travel)
+        check_travel(self._spec.joints, q0, self._travel)
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[self._qadr] = q0
         mujoco.mj_forward(self.model, self.data)
