@@ -87,3 +87,29 @@ def box(surface, normal, radius, tip_start, half_width):
     centre = np.asarray(tip_start, dtype=float).copy()
     centre += (face + surface.sign * HALF_THICKNESS - normal @ centre) * normal
     return centre, np.full(3, half_width) * (1.0 - normal) + HALF_THICKNESS * normal
+
+
+def spring_force(k_e, b_e, depth, depth_rate):
+    """The surface's normal force on the tip, N (>= 0: a surface pushes, never pulls):
+
+        f = max(k_e d + b_e dd, 0) where d > 0, else 0
+
+    k_e N/m, b_e N s/m, d = sign (x_N - x_e) the penetration, m, dd its rate, m/s."""
+    if depth <= 0.0:
+        return 0.0
+    return max(k_e * depth + b_e * depth_rate, 0.0)
+
+
+def probe_radius(xml, tip):
+    """Radius (m) of link `tip`'s single collision sphere in URDF text `xml`, or ArgumentError naming surface
+    (none, several, or one off the link origin)."""
+    links = [ln for ln in ET.fromstring(xml.lstrip()).findall('link') if ln.get('name') == tip]
+    shapes = links[0].findall('collision') if links else []
+    sphere = shapes[0].find('geometry/sphere') if len(shapes) == 1 else None
+    if sphere is None:
+        raise ArgumentError('surface', 'the tip link must collide through one sphere at its origin')
+    origin = shapes[0].find('origin')
+    xyz = [float(v) for v in origin.get('xyz', '0 0 0').split()] if origin is not None else [0.0, 0.0, 0.0]
+    if np.linalg.norm(xyz) > 1e-9:
+        raise ArgumentError('surface', f'the tip link\'s collision sphere is at {xyz}, not at the link origin')
+    return float(sphere.get('radius'))

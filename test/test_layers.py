@@ -25,11 +25,12 @@ NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'ro
          'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check',
          'sim_bridge.joint_friction', 'sim_bridge.joint_physics', 'sim_bridge.sensors',
          'sim_bridge.mujoco_world', 'sim_bridge.mujoco_model', 'sim_bridge.engines', 'sim_bridge.world_base',
-         'sim_bridge.pybullet_surface']
+         'sim_bridge.pybullet_surface', 'sim_bridge.mujoco_surface']
 #: the worlds and what they build on may import their own physics engine; nothing else may import one
 ENGINE_ALLOWED = {'sim_bridge.world': 'pybullet', 'sim_bridge.pybullet_surface': 'pybullet',
                   'sim_bridge.physics_check': 'pybullet', 'sim_bridge.joint_physics': 'pybullet',
-                  'sim_bridge.mujoco_world': 'mujoco', 'sim_bridge.mujoco_model': 'mujoco'}
+                  'sim_bridge.mujoco_world': 'mujoco', 'sim_bridge.mujoco_model': 'mujoco',
+                  'sim_bridge.mujoco_surface': 'mujoco'}
 
 
 def _exists(name):
