@@ -24,19 +24,21 @@ class MujocoSurface:
         self.surface, self.normal, self.radius, self.damping, self.body = surface, np.asarray(normal), radius, \
             damping, body
         self.centre, self.half = surfaces.box(surface, self.normal, radius, tip_start, half_width)
-        self._lateral = 1.0 - self.normal
+        self._axis = int(np.argmax(np.abs(self.normal)))     # the normal is a world axis (surfaces.surface_normal)
+        self._lateral = [(a, float(self.centre[a]), float(self.half[a])) for a in range(3) if a != self._axis]
         self._jac = None
-        self.wrench = (np.zeros(3), np.zeros(3))      # of the last step: on the surface, torque about the origin
+        self._none = (np.zeros(3), np.zeros(3))
+        self.wrench = self._none      # of the last step: on the surface, torque about the origin
 
     def apply(self, model, data, qfrc):
         """Add the tip's load J^T F_tip to qfrc (nv,) at data's state (after mj_step1) and keep the wrench on
         the surface (force N, torque N m about the world origin) for contact_wrench."""
         s, n = self.surface, self.normal
         p = data.xpos[self.body]
-        depth = s.sign * (n @ p - s.x_e)
-        inside = np.all(np.abs((p - self.centre) * self._lateral) <= self.half * self._lateral)
-        if depth <= 0.0 or depth > 2.0 * surfaces.HALF_THICKNESS or not inside:
-            self.wrench = (np.zeros(3), np.zeros(3))
+        depth = s.sign * (float(p[self._axis]) * n[self._axis] - s.x_e)
+        if depth <= 0.0 or depth > 2.0 * surfaces.HALF_THICKNESS or \
+                any(abs(float(p[a]) - c) > h for a, c, h in self._lateral):
+            self.wrench = self._none
             return
         rate = 0.0
         if self.damping > 0.0:

@@ -47,6 +47,14 @@ def _effort_limits(xml, joints):
     return np.array([limits[name] for name in joints])
 
 
+def _at(index):
+    """`index` (an integer array) as a slice where it is a contiguous ascending run (numpy then indexes by a view,
+    not a copy), else as it is."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
+
+
 def _travel(model, ids):
     """(lower, upper) per joint id as World keeps them: lower > upper where the joint is unlimited."""
     return [tuple(model.jnt_range[j]) if model.jnt_limited[j] else (0.0, -1.0) for j in ids]
@@ -91,6 +99,7 @@ class MujocoWorld:
         if self.model.nv != len(spec.joints):
             raise ArgumentError('joints', f'expected single-dof joints (revolute, continuous, prismatic), got {names}')
         self._qadr, self._dadr = mujoco_model.dofs(self.model, spec.joints)
+        self._q_at, self._v_at = _at(self._qadr), _at(self._dadr)      # the same, as slices where they can be
         self._travel = _travel(self.model, [self.model.joint(name).id for name in spec.joints])
         self._limit = _effort_limits(xml, spec.joints)
         self._limit_min = float(np.min(self._limit))
@@ -189,7 +198,7 @@ class MujocoWorld:
     def set_friction(self, friction):
         """Replace the joints' friction and armature (World's `friction` argument), from the next step."""
         self.friction = JointFriction.of(self.n, friction)
-        self._loss = None
+        self._friction_active, self._loss = self.friction.active, None
 
     def joint_friction_torque(self):
         """tau_loss = b qd - f + I_a qdd (n,), N m or N, of the last step (sim_bridge.joint_friction): zeros
@@ -213,8 +222,8 @@ class MujocoWorld:
             raise ArgumentError('k', f'expected a positive integer number of steps, got {k!r}')
         m, d, dist = self.model, self.data, self._disturbance
         if self._brake is None and self._spec.spring is None and self._surface is None and \
-                not (self.friction.active or dist.has_joint_torque or dist.has_force):
-            d.qfrc_applied[self._dadr] = self._tau   # every dof is a controlled joint's (the others are fixed)
+                not (self._friction_active or dist.has_joint_torque or dist.has_force):
+            d.qfrc_applied[self._v_at] = self._tau   # every dof is a controlled joint's (the others are fixed)
             for _ in range(int(k)):                  # a load that does not depend on the state: one call a step
                 mujoco.mj_step(m, d)
                 self.t_ns += self.dt_ns
@@ -222,13 +231,13 @@ class MujocoWorld:
         for _ in range(int(k)):
             mujoco.mj_step1(m, d)
             d.qfrc_applied[:] = 0.0
-            d.qfrc_applied[self._dadr] = self._environment()
+            d.qfrc_applied[self._v_at] = self._environment()
             if self._tip is not None and self._disturbance.has_force:
                 mujoco.mj_applyFT(m, d, self._disturbance.cartesian_force, np.zeros(3), d.xpos[self._tip],
                                   self._tip, d.qfrc_applied)
             if self._surface is not None:
                 self._surface.apply(m, d, d.qfrc_applied)
-            d.qfrc_applied[self._dadr] += self._drive()
+            d.qfrc_applied[self._v_at] += self._drive()
             mujoco.mj_step2(m, d)
             self.t_ns += self.dt_ns
 
@@ -246,16 +255,15 @@ class MujocoWorld:
         if self._brake is not None:
             self._brake_applied = self._brake_torque()
             return self._brake_applied
-        fr = self.friction
-        if not fr.active:
+        if not self._friction_active:
             return self._tau
-        d = self.data
-        qd = d.qvel[self._dadr]
+        fr, d = self.friction, self.data
+        qd = d.qvel[self._v_at]
         if not fr.exact:                        # viscous alone: -b qd, no solve
             self._loss = fr.viscous * qd
             return self._tau - self._loss
         mass = mujoco_model.mass_matrix(self.model, d)[np.ix_(self._dadr, self._dadr)]
-        r = self._tau + d.qfrc_applied[self._dadr] - fr.viscous * qd - d.qfrc_bias[self._dadr]
+        r = self._tau + d.qfrc_applied[self._v_at] - fr.viscous * qd - d.qfrc_bias[self._v_at]
         f, qdd, self._loss = step_loss(fr, mass, qd, r, self.dt)
         return self._tau + f - fr.armature * qdd - fr.viscous * qd
 
@@ -278,12 +286,12 @@ class MujocoWorld:
 
     def state_values(self):
         """state() as three tuples of n floats."""
-        return (tuple(self.data.qpos[self._qadr].tolist()), tuple(self.data.qvel[self._dadr].tolist()),
+        return (tuple(self.data.qpos[self._q_at].tolist()), tuple(self.data.qvel[self._v_at].tolist()),
                 tuple(self._applied().tolist()))
 
     def state_into(self, q_out, qd_out, tau_out):
         """state() written into three float64 (n,) arrays; returns them."""
-        q_out[:], qd_out[:], tau_out[:] = self.data.qpos[self._qadr], self.data.qvel[self._dadr], self._applied()
+        q_out[:], qd_out[:], tau_out[:] = self.data.qpos[self._q_at], self.data.qvel[self._v_at], self._applied()
         return q_out, qd_out, tau_out
 
     def tip_position(self):
