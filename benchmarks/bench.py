@@ -26,7 +26,9 @@ B3 real time at 1 kHz (benchmarks.bench_ros): the polar arm, the iiwa under comp
    of states and commands at 1 kHz without physics and law); the targets hold for each run: missed
    periods at most 1.5 times the floor's runs pooled over as many periods (a floor of 0 allows 1), p99
    latency <= 1 ms, real-time factor >= 0.99.
-B4 the PyBullet World of the iiwa without ROS: physics steps per second under torque control.
+B4 the World of the iiwa without ROS, on PyBullet and on MuJoCo (sim_bridge.engines), rounds interleaved: physics
+   steps per second under torque control (set_torque, step, state), the table in the world on both; the target is
+   on MuJoCo's rate over PyBullet's in the same run (sim_steps_mujoco_vs_pybullet).
 
 `make bench` runs it (`make bench QUICK=1` with --quick). --quick runs seconds instead of minutes
 and still writes every key. ROS processes run with
@@ -64,6 +66,7 @@ TARGETS = {
     'realtime_missed_vs_floor': ('<=', 1.5),
     'realtime_latency_p99_ms': ('<=', 1.0),
     'realtime_rtf': ('>=', 0.99),
+    'sim_steps_mujoco_vs_pybullet': ('>=', 1.0),
 }
 #: B3's targets hold for each of its runs as well
 for _run in REALTIME_RUNS:
@@ -338,26 +341,31 @@ def bench_transport(plan):
 
 # -- B4: the world without ROS -------------------------------------------------------------------
 def bench_world(plan):
-    """B4: iiwa World physics steps per second (set_torque, step, state per step)."""
+    """B4: iiwa World physics steps per second (set_torque, step, state per step) on each engine, rounds interleaved;
+    MuJoCo's over PyBullet's."""
     from robot_control.models import for_scenario
-    from sim_bridge.world import World
+    from sim_bridge.engines import make_world
 
-    world = World('iiwa')
+    worlds = {'': make_world('pybullet', 'iiwa'), '_mujoco': make_world('mujoco', 'iiwa')}
     try:
-        q0 = world.state()[0]
+        q0 = worlds[''].state()[0]
         tau = for_scenario('iiwa').g(q0)          # gravity hold: the arm stays where it starts
-        rates = []
+        rates = {key: [] for key in worlds}
         for r in range(plan.world_rounds + 1):
-            t0 = time.perf_counter_ns()
-            for _ in range(plan.world_steps):
-                world.set_torque(tau)
-                world.step()
-                world.state()
-            if r:
-                rates.append(plan.world_steps * 1e9 / (time.perf_counter_ns() - t0))
+            for key, world in worlds.items():
+                t0 = time.perf_counter_ns()
+                for _ in range(plan.world_steps):
+                    world.set_torque(tau)
+                    world.step()
+                    world.state()
+                if r:
+                    rates[key].append(plan.world_steps * 1e9 / (time.perf_counter_ns() - t0))
     finally:
-        world.close()
-    return {'sim_steps_per_s_iiwa': float(np.median(rates))}
+        for world in worlds.values():
+            world.close()
+    out = {f'sim_steps_per_s_iiwa{key}': float(np.median(v)) for key, v in rates.items()}
+    out['sim_steps_mujoco_vs_pybullet'] = out['sim_steps_per_s_iiwa_mujoco'] / out['sim_steps_per_s_iiwa']
+    return out
 
 
 # -- machine, output -----------------------------------------------------------------------------

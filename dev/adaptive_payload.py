@@ -10,11 +10,9 @@ and the mass estimate at the end of each; draws the estimate's mass and centre o
 RMS per repetition.
 """
 import argparse
-import io
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
@@ -23,7 +21,7 @@ from robot_control.gains import ServoGains
 from robot_control.models import for_scenario, make_model
 from sim_bridge.world import World
 
-from dev.docs_results import PLOT_COLOURS
+from dev.docs_results import save_figure
 
 DT = 0.001
 PAYLOAD = (2.0, (0.0, 0.0, 0.05))       # kg, m in the tip frame
@@ -86,13 +84,7 @@ def figure(estimates, rms, out):
         ax_r.semilogy(reps, rms[name], style, label=name)
     ax_r.set(xlabel='repetition', ylabel='RMS error (rad)', title='tracking', xticks=reps)
     ax_r.legend(fontsize=7)
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format='png')
-    plt.close(fig)
-    with Image.open(buffer) as image:      # the docs' plots' palette (dev.docs_results): a fifth of the bytes
-        image.convert('RGB').quantize(colors=PLOT_COLOURS, dither=Image.Dither.NONE).save(out, optimize=True)
+    save_figure(fig, out)
 
 
 def main(argv=None):

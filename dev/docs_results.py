@@ -377,6 +377,22 @@ def replace_between_markers(text, body, begin=BEGIN, end=END):
     return text[:start + len(begin)] + '\n' + body.strip('\n') + '\n' + text[stop:]
 
 
+def save_figure(fig, out):
+    """Lay matplotlib figure `fig` out tight and write it to PNG file `out` (its directory made) in the docs' plots'
+    palette (PLOT_COLOURS: a fifth of the bytes); close it."""
+    import io
+
+    import matplotlib.pyplot as plt
+    from PIL import Image
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format='png')
+    plt.close(fig)
+    with Image.open(buffer) as image:
+        image.convert('RGB').quantize(colors=PLOT_COLOURS, dither=Image.Dither.NONE).save(out, optimize=True)
+
+
 def copy_plots(results_dir, figures_dir):
     """Copy each run's `tracking.png` under results_dir to figures_dir/<experiment>.png in PLOT_COLOURS
     colours; returns the experiments copied."""

@@ -127,6 +127,17 @@ def from_values(values, n):
     return JointFriction.of(n, {key: values[name] for key, name in PARAMETERS.items()})
 
 
+def step_loss(friction, mass, qd, r, dt):
+    """(f (n,), qdd (n,), tau_loss (n,)) of one step of the equations above: `friction` a JointFriction, mass
+    M(q) (n, n), qd (n,) at the step's start, r (n,) = tau + tau_env - b qd - h (+ tau_c), dt s. f the implicit
+    Coulomb torque (coulomb_torque with A = M + diag(I_a)), qdd = (qd+ - qd) / dt the step's acceleration,
+    tau_loss = b qd - f + I_a qdd what friction and armature take from the motor torque."""
+    inertia = mass + np.diag(friction.armature)
+    f, v = coulomb_torque(inertia, inertia @ qd / dt + r, dt, friction.coulomb)
+    qdd = (v - qd) / dt
+    return f, qdd, friction.viscous * qd - f + friction.armature * qdd
+
+
 def coulomb_torque(A, b, dt, fc):
     """(f (n,) N m or N, qd+ (n,)): the implicit Coulomb torque of one step and the velocities after it.
 

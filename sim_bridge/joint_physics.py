@@ -4,7 +4,7 @@ import numpy as np
 import pybullet as p
 
 from sim_bridge import physics_check
-from sim_bridge.joint_friction import coulomb_torque
+from sim_bridge.joint_friction import step_loss
 
 
 class JointPhysics:
@@ -26,7 +26,6 @@ class JointPhysics:
         """Put `friction` (a JointFriction for these joints) in force from the next step."""
         self.friction = friction
         self.exact = friction.exact
-        self._armature = np.diag(friction.armature)
         self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
         self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
         for j, b in zip(self._joints, friction.viscous.tolist()):
@@ -54,11 +53,8 @@ class JointPhysics:
             r += self._jacobian(q_all, qd_all).T @ cartesian_force
         constraint = 0.0 if self._last is None else self._constraint(qd)
         r += constraint
-        inertia = mass + self._armature
-        f, v = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb)
-        self._last = (mass, v, constraint)
-        qdd = (v - qd) / self.dt
-        self.loss = fr.viscous * qd - f + fr.armature * qdd
+        f, qdd, self.loss = step_loss(fr, mass, qd, r, self.dt)
+        self._last = (mass, qd + self.dt * qdd, constraint)
         return (tau + f - fr.armature * qdd).tolist()
 
     def _constraint(self, qd):

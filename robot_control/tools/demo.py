@@ -5,8 +5,9 @@
     python -m robot_control.demo --experiment disturbance_pid --no-plot
     python -m robot_control.demo --all                               # every experiment, for docs/results.md
     python -m robot_control.demo --experiment iiwa_ptp --realism typical   # the arm as published, not as modelled
+    python -m robot_control.demo --all --engine both                 # every experiment on PyBullet and MuJoCo
 
-A run starts two OS processes, `sim_bridge_node` (PyBullet: the robot) and `controller_node`,
+A run starts two OS processes, `sim_bridge_node` (the robot, on PyBullet or `--engine mujoco`) and `controller_node`,
 each with `--ros-args --params-file config/<scenario>.yaml` plus the experiment's overrides, on a
 DDS domain of its own with discovery limited to this machine. In this process it runs the
 experiment's reference publisher, the metrics collector and the rosbag2 recorder. It prints a
@@ -16,6 +17,9 @@ robot_control.tools.demo_metrics, the run's domain, expected ticks and lost mess
 `tracking.png`, `bag/` (mcap, every topic) and `logs/` (the two nodes' output).
 `--realism typical` also gives the bridge config/realism/<scenario>_typical.yaml after the scenario's file
 (friction, masses, sensor noise and delay; the controller keeps its model), into out/demo/<name>_typical/.
+`--engine mujoco` runs the bridge on MuJoCo (its parameter `engine`), into out/demo/<name>_mujoco/; `--engine
+both` runs each experiment on both engines and ends with a side-by-side table (side_by_side): tracking RMS and
+steady contact force per engine, flagged where they differ by more than RMS_ATOL and RMS_RTOL / FORCE_RTOL.
 
 Modes: `lockstep` (the default) is deterministic -- the bridge steps only when the command for the
 current state has arrived, so the same run gives the same numbers every time, on any machine; it
@@ -63,6 +67,11 @@ REPAIR_TIMEOUT = 8.0
 FIRST_TICK = ('/joint_states', '/robot_joint_commands', '/controller/reference', '/controller/error',
               '/ft_sensor/wrench')
 CONFIRM_TIMEOUT = 10.0    # s for the controller to confirm a reference
+#: the physics engines of --engine (the first is the bridge's default); 'both' runs each
+ENGINES = ('pybullet', 'mujoco')
+#: engines agree on tracking when their RMS differ by < RMS_ATOL (rad or m) or < RMS_RTOL of the larger,
+#: on force when their steady forces differ by < FORCE_RTOL of the larger
+RMS_ATOL, RMS_RTOL, FORCE_RTOL = 1e-3, 0.10, 0.05
 
 
 @dataclass
@@ -197,26 +206,35 @@ class Progress:
         self.write(f'  t = {t:6.2f} s  ' + '  '.join(parts) + f'  | {rate:5.0f} ticks/s', flush=True)
 
 
+def output_name(name, realism='ideal', engine='pybullet'):
+    """Directory name of a run's outputs: demo_experiments.output_name, with _<engine> but for the default engine."""
+    base = experiments.output_name(name, realism)
+    return base if engine == ENGINES[0] else f'{base}_{engine}'
+
+
 def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, plot=True, domain_id=None,
-        write=print, keep_data=True, realism='ideal'):
+        write=print, keep_data=True, realism='ideal', engine='pybullet'):
     """Run `experiment` (an Experiment or a name) end to end; returns a RunResult. See the module docstring.
 
     mode 'lockstep' | 'realtime'; duration s of simulation (default the experiment's); out_dir default
     out/demo/<name>; record: bag/; plot: tracking.png; domain_id: ROS_DOMAIN_ID of the run (default: a
     free one of procs.PRIVATE_DOMAIN_IDS); write: print-like function for progress (None: quiet);
     keep_data: keep the per-tick RunData in the result; realism: 'ideal' or 'typical' (the bridge also reads
-    realism_profile(scenario, realism); out_dir default out/demo/<name>_typical).
+    realism_profile(scenario, realism); out_dir default out/demo/<name>_typical); engine: the bridge's physics
+    engine, one of ENGINES (out_dir default out/demo/<name>_<engine> but for pybullet).
     """
     if isinstance(experiment, str):
         experiment = experiments.get(experiment)
     if mode not in ('lockstep', 'realtime'):
         raise ValueError(f"mode: expected 'lockstep' or 'realtime', got {mode!r}")
+    if engine not in ENGINES:
+        raise ValueError(f'engine: expected one of {list(ENGINES)}, got {engine!r}')
     duration = experiment.duration if duration is None else float(duration)
     if not duration > 0:
         raise ValueError(f'duration: expected > 0 s, got {duration}')
     profile = realism_profile(experiment.scenario, realism)
     out_dir = Path(out_dir if out_dir is not None
-                   else ROOT / 'out' / 'demo' / experiments.output_name(experiment.name, realism))
+                   else ROOT / 'out' / 'demo' / output_name(experiment.name, realism, engine))
     out_dir.mkdir(parents=True, exist_ok=True)
     claim = None
     if domain_id is None:   # a private id, claimed for the run
@@ -224,13 +242,13 @@ def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, p
         domain_id = claim.acquire()
     try:
         return _run(experiment, mode, duration, out_dir, record, plot, int(domain_id), write, keep_data,
-                    (realism, profile))
+                    (realism, profile), engine)
     finally:
         if claim is not None:
             claim.release()
 
 
-def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data, realism):
+def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data, realism, engine):
     from robot_control.tools import demo_ros
     env = procs.ros_env(domain_id)
     # this process joins the same private domain, loopback only, before rclpy reads the environment
@@ -250,9 +268,9 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
     with LiveRun(domain_id, env, out_dir / 'logs', say) as live:
         if record:
             live.start_recording(out_dir / 'bag')
-        say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s, {describe_realism(*realism)}): '
+        say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s, {describe_realism(*realism)}, {engine}): '
             f'ROS_DOMAIN_ID={domain_id}, discovery LOCALHOST', flush=True)
-        live.start_nodes(scenario, {'mode': mode, **experiment.bridge}, controller_params(experiment),
+        live.start_nodes(scenario, {'mode': mode, 'engine': engine, **experiment.bridge}, controller_params(experiment),
                          [realism[1]] if realism[1] else [])
         origin_ns = live.wait_for_first_tick(mode)
         live.send_references(joints, experiment.trajectory, origin_ns)
@@ -277,8 +295,10 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         data.events = changes.applied
     result.summary = summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say)
     result.summary['realism'] = realism[0]
+    result.summary['engine'] = engine
     result.summary['realism_profile'] = None if realism[1] is None else relative_to_root(realism[1])
-    title = f'{law}, {mode}' + ('' if realism[0] == 'ideal' else f', {realism[0]} robot')
+    title = f'{law}, {mode}' + ('' if realism[0] == 'ideal' else f', {realism[0]} robot') + \
+        ('' if engine == ENGINES[0] else f', {engine}')
     write_outputs(out_dir, result.summary, data, experiment, title if plot else None)
     result.data = data if keep_data else None
     return result
@@ -608,53 +628,96 @@ def _parser():
                    help='ideal: the robot the controller models (default); typical: the bridge also reads '
                         'config/realism/<scenario>_typical.yaml (friction, masses, noise, delay; a scenario '
                         'without a profile runs ideal); outputs in out/demo/<name>_typical')
+    p.add_argument('--engine', choices=(*ENGINES, 'both'), default=ENGINES[0],
+                   help='physics engine of the bridge (default pybullet); both: each experiment on each engine, '
+                        'then a side-by-side table; outputs of mujoco in out/demo/<name>_mujoco')
     p.add_argument('--no-plot', action='store_true', help='do not write tracking.png')
     p.add_argument('--no-record', action='store_true', help='do not record bag/')
-    p.add_argument('--out', default=None, help='output directory (default out/demo/<name>; with --all, '
-                                               'the parent of the per-experiment directories)')
+    p.add_argument('--out', default=None, help='output directory (default out/demo/<name>; with --all or '
+                                               '--engine both, the parent of the per-run directories)')
     p.add_argument('--domain-id', type=int, default=None,
                    help='ROS_DOMAIN_ID of the run (default: the first free of 101, 100, ..., 1)')
     p.add_argument('--quiet', action='store_true', help='no progress lines')
     return p
 
 
-def _one(name, opts, out_dir):
+def _one(name, opts, out_dir, engine):
     from robot_control.tools.demo_metrics import format_summary
     result = run(name, mode=opts.mode if not opts.all else 'lockstep', duration=opts.duration, out_dir=out_dir,
                  record=not opts.no_record, plot=not opts.no_plot, domain_id=opts.domain_id,
-                 write=None if opts.quiet else print, keep_data=False, realism=opts.realism)
-    print(f'\n[demo] {name}: summary\n{format_summary(result.summary)}')
+                 write=None if opts.quiet else print, keep_data=False, realism=opts.realism, engine=engine)
+    print(f'\n[demo] {name} ({engine}): summary\n{format_summary(result.summary)}')
     files = ['summary.json'] + (['tracking.png'] if not opts.no_plot else []) + (['bag/'] if not opts.no_record else [])
     print(f'[demo] wrote {out_dir}/ {" ".join(files)}', flush=True)
     return result
+
+
+def tracking_rms(summary):
+    """The largest RMS tracking error of a run's summary over its coordinates, rad or m, or None."""
+    values = [v for v in summary['rms_error'].values() if v is not None]
+    return max(values) if values else None
+
+
+def steady_force(summary):
+    """The steady contact force of a run's summary on its first force axis, N (the reference less the steady-state
+    error), or None without force control."""
+    if not summary.get('force_axes'):
+        return None
+    axis = summary['force_axes'][0]
+    return summary['force_reference'][axis] - summary['force_steady_state_error'][axis]
+
+
+def _differ(a, b, atol, rtol):
+    """'' when a and b (or either missing) agree within atol or rtol of the larger magnitude, else 'differs'."""
+    if a is None or b is None or abs(a - b) < atol or abs(a - b) < rtol * max(abs(a), abs(b)):
+        return ''
+    return 'differs'
+
+
+def side_by_side(summaries, names):
+    """A Markdown table of {(experiment, engine): summary}: per experiment the tracking RMS (tracking_rms) and the
+    steady force (steady_force) on each engine of ENGINES, and where they differ more than RMS_ATOL / RMS_RTOL or
+    FORCE_RTOL."""
+    head = ['experiment'] + [f'RMS {e}' for e in ENGINES] + ['RMS'] + [f'force {e} N' for e in ENGINES] + ['force']
+    lines = ['| ' + ' | '.join(head) + ' |', '|' + '---|' * len(head)]
+    fmt = (lambda v, spec: '-' if v is None else format(v, spec))
+    for name in names:
+        runs = [summaries.get((name, e)) for e in ENGINES]
+        rms = [None if r is None else tracking_rms(r) for r in runs]
+        force = [None if r is None else steady_force(r) for r in runs]
+        cells = [name] + [fmt(v, '.3e') for v in rms] + [_differ(*rms, RMS_ATOL, RMS_RTOL)]
+        cells += [fmt(v, '.3f') for v in force] + [_differ(*force, 0.0, FORCE_RTOL)]
+        lines.append('| ' + ' | '.join(cells) + ' |')
+    return '\n'.join(lines)
 
 
 def main(argv=None):
     opts = _parser().parse_args(argv)
     if opts.duration is not None and not opts.duration > 0:
         _parser().error('--duration must be > 0')
-    if opts.all:
-        names = list(experiments.EXPERIMENTS)
+    engines = ENGINES if opts.engine == 'both' else (opts.engine,)
+    names = list(experiments.EXPERIMENTS) if opts.all else [opts.experiment or opts.scenario or 'polar_two_link']
+    runs = [(name, engine) for name in names for engine in engines]
+    if opts.out and len(runs) == 1:
+        dirs = {runs[0]: Path(opts.out)}
+    else:      # --out: the parent of the per-run directories
         base = Path(opts.out) if opts.out else ROOT / 'out' / 'demo'
-        dirs = {n: base / experiments.output_name(n, opts.realism) for n in names}
-    else:
-        name = opts.experiment or opts.scenario or 'polar_two_link'
-        names = [name]
-        out = Path(opts.out) if opts.out else ROOT / 'out' / 'demo' / experiments.output_name(name, opts.realism)
-        dirs = {name: out}
+        dirs = {r: base / output_name(r[0], opts.realism, r[1]) for r in runs}
     old = procs.install_signal_handlers()
-    code = 0
+    code, summaries = 0, {}
     try:
-        for name in names:
+        for name, engine in runs:
             try:
-                _one(name, opts, dirs[name])
+                summaries[name, engine] = _one(name, opts, dirs[name, engine], engine).summary
             except (TimeoutError, RuntimeError, procs.ProcessError) as exc:
                 if interrupted(exc):
                     raise
-                print(f'[demo] {name} failed: {exc}', file=sys.stderr, flush=True)
+                print(f'[demo] {name} ({engine}) failed: {exc}', file=sys.stderr, flush=True)
                 code = 1
                 if not opts.all:
                     break
+        if len(engines) > 1:
+            print('\n[demo] the engines side by side\n' + side_by_side(summaries, names), flush=True)
     except BaseException as exc:
         if not interrupted(exc):
             raise

@@ -47,6 +47,9 @@ def cmd_run(opts):
     if progress.new:
         print(f'{progress.new} episodes run here: {eps:.2f} episodes/s, {ticks:,.0f} ticks/s with {opts.workers} '
               f'worker(s)')
+    if 'engine' in sampled:
+        print('in the episodes, per engine: ' + ', '.join(f'{engine} {rate:,.0f} ticks/s' for engine, rate in
+                                                          sweep_report.ticks_per_s_by(rows, 'engine').items()))
     print(f'results: {out}/episodes.csv, summary.json, histograms.png, metrics_vs_parameters.png')
     return 0
 

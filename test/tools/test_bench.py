@@ -37,7 +37,7 @@ KEYS = (
     *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance')
       for metric in ('missed_vs_floor', 'missed_periods', 'periods', 'floor_missed_periods',
                      '1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
-    'sim_steps_per_s_iiwa',
+    'sim_steps_per_s_iiwa', 'sim_steps_per_s_iiwa_mujoco', 'sim_steps_mujoco_vs_pybullet',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
     'wrench_decode_us_cdr_median', 'wrench_decode_us_rclpy_median',
 )
