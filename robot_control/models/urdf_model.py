@@ -292,25 +292,25 @@ class UrdfModel(RobotModel):
         xdd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         return x, xd, xdd
 
-    def _tip_regressor(self, q, qd, qr_d, qr_dd, x=None):
-        """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
-        Y pi with pi its inertial parameters in the tip frame (pinocchio.Inertia.toDynamicParameters:
-        m; m c; Ixx, Ixy, Iyy, Ixz, Iyz, Izz about the frame's origin). C is Pinocchio's (Mdot - 2C
-        skew, computeCoriolisMatrix), so Y is Slotine and Li's regressor: with qr = qd it is the
-        body's share of the inverse dynamics. In the tip frame, J its Jacobian, Jdot J's rate and
-        a_g the gravity (spatial vectors, world quantities carried to the tip frame at q):
-        v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g, and Y = J^T Y_b(v, v_r, a_r)
-        (_slotine_li_body_regressor). With x (n,): (Y, Y_x), Y_x pi = the body's share of M(q) x,
-        Y_x = J^T A(J x) (A: the body regressor of an acceleration alone)."""
+    def _tip_motion(self, q, qd):
+        """(J, Jdot, a_g): the tip frame's Jacobian and its rate, (6, n) each, and the gravity (6,), spatial
+        vectors (linear, then angular) in the tip frame at (q, qd), from one kinematics pass: the tip's
+        velocity is J qd and its acceleration J qdd + Jdot qd; a_g the world's gravity carried to the frame."""
         model, data, fid = self.model, self._data, self.frame_id
         pin.computeJointJacobiansTimeVariation(model, data, self._map.q(q), self._map.v(qd))
         joint = model.frames[fid].parentJoint
         to_tip = pin.updateFramePlacement(model, data, fid).toActionMatrixInverse()    # world -> tip frame
         J = to_tip @ self._columns(pin.getJointJacobian(model, data, joint, pin.WORLD))
         Jdot = to_tip @ self._columns(pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD))
-        a_r = J @ qr_dd + Jdot @ qr_d - to_tip @ model.gravity.vector
-        Y = J.T @ _slotine_li_body_regressor(J @ qd, J @ qr_d, a_r)
-        return Y if x is None else (Y, J.T @ _body_regressor(J @ x))
+        return J, Jdot, to_tip @ model.gravity.vector
+
+    def _tip_regressor(self, q, qd, qr_d, qr_dd):
+        """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
+        Y pi with pi its inertial parameters in the tip frame (pinocchio.Inertia.toDynamicParameters:
+        m; m c; Ixx, Ixy, Iyy, Ixz, Iyz, Izz about the frame's origin). C is Pinocchio's (Mdot - 2C
+        skew, computeCoriolisMatrix), so Y is Slotine and Li's regressor: with qr = qd it is the
+        body's share of the inverse dynamics (tip_body_regressor of _tip_motion)."""
+        return tip_body_regressor(*self._tip_motion(q, qd), qd, qr_d, qr_dd)
 
     def tip_regressor(self, q, qd, qr_d, qr_dd):
         """_tip_regressor, checked: q, qd, qr_d, qr_dd (n,) rad, rad/s, rad/s^2 -> Y (n, 10); ArgumentError
@@ -367,6 +367,20 @@ class UrdfModel(RobotModel):
     def __repr__(self):
         return (f'UrdfModel({self.source!r}, joints={list(self.joint_names)}, tip={self.tip!r}, '
                 f'task_space={self.task_space!r})')
+
+
+def tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd):
+    """Y (n, 10) = J^T Y_b(v, v_r, a_r): a body's share, Y pi, of M(q) qr_dd + C(q, qd) qr_d + g(q) when it is
+    carried by a frame with Jacobian J, its rate Jdot (6, n) and gravity a_g (6,) in that frame (UrdfModel
+    ._tip_motion), with v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g (_slotine_li_body_regressor);
+    vectors (n,) rad/s, rad/s^2."""
+    return J.T @ _slotine_li_body_regressor(J @ qd, J @ qr_d, J @ qr_dd + Jdot @ qr_d - a_g)
+
+
+def tip_inertia_regressor(J, x):
+    """Y_x (n, 10) = J^T A(J x): a body's share, Y_x pi, of M(q) x when it is carried by a frame with Jacobian
+    J (6, n) (UrdfModel._tip_motion); x (n,) (A: _body_regressor)."""
+    return J.T @ _body_regressor(J @ x)
 
 
 def _body_regressor(a):
