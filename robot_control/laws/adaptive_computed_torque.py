@@ -89,13 +89,13 @@ def _reference_motion(E, Ed, qd_d, qdd_d, lam):
 
 def _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd=None):
     """(tau, Y, s, terms): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, s = qd - qr_d, with
-    Y the tip body's regressor (n, 10) (tip_body_regressor of model._tip_motion); K_D = diag(kd), or when kd
+    Y the tip body's regressor (n, 10) (tip_body_regressor of the tip's motion, model._dynamics_and_tip); K_D = diag(kd), or when kd
     is None designed as K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's
     (M_theta s = tip_inertia_regressor(J, s) theta); terms = (M, C qd + g, (J, Jdot, a_g)) for the torque
     prediction. Checked arrays (n,), theta (10,)."""
     s = qd - qr_d
-    M, C, g = model._M(q), model._C(q, qd), model._g(q)
-    tip = J, Jdot, a_g = model._tip_motion(q, qd)
+    M, C, g, tip = model._dynamics_and_tip(q, qd)
+    J, Jdot, a_g = tip
     Y = tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd)
     K_D_s = kd * s if kd is not None else lam * (M @ s + tip_inertia_regressor(J, s) @ theta)
     tau = M @ qr_dd + C @ qr_d + g + Y @ theta - K_D_s
@@ -107,20 +107,30 @@ def _adaptation_step(theta, Y, s, gamma, dt, W=None, e=None, rho=0.0):
     gamma (10,) the diagonal of Gamma, dt s; W (n, 10), e (n,) the prediction (None: the first term alone)."""
     step = Y.T @ s
     if W is not None:
-        step = step + (rho / (1.0 + np.einsum('ij,j,ij->', W, gamma, W))) * (W.T @ e)
-    return theta - dt * gamma * step
+        step += (rho / (1.0 + np.vdot(W * gamma, W))) * (W.T @ e)
+    return theta - (dt * gamma) * step
 
 
 def _project(theta, gamma, mass_max, com_max):
     """The point of Omega (the module docstring) nearest theta (10,) in the metric of Gamma^-1, gamma (10,)
     its diagonal with one value on the three first moments: mass and first moment on the cone
-    |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds."""
+    |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds; theta itself
+    when it is in Omega."""
+    lower, upper = _inertia_bounds(mass_max, com_max)
+    m, h, inertia = theta[0], theta[FIRST_MOMENT], theta[INERTIA]
+    if 0.0 <= m <= mass_max and h @ h <= (com_max * m) ** 2 and (lower <= inertia).all() and (inertia <= upper).all():
+        return theta
     out = theta.copy()
-    out[MASS], out[FIRST_MOMENT] = _project_on_cone(theta[0], theta[FIRST_MOMENT], gamma[0], gamma[1],
-                                                    mass_max, com_max)
-    bound = mass_max * com_max ** 2
-    out[INERTIA] = np.clip(theta[INERTIA], bound * _INERTIA_LOWER, bound * _INERTIA_UPPER)
+    out[MASS], out[FIRST_MOMENT] = _project_on_cone(m, h, gamma[0], gamma[1], mass_max, com_max)
+    out[INERTIA] = np.clip(inertia, lower, upper)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _inertia_bounds(mass_max, com_max):
+    """(lower, upper) (6,) of the rotational inertia's entries in Omega, kg m^2."""
+    bound = mass_max * com_max ** 2
+    return bound * _INERTIA_LOWER, bound * _INERTIA_UPPER
 
 
 def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
@@ -180,7 +190,7 @@ def _gamma_diagonal(name, gamma):
 
 
 def _check_model(model):
-    if not callable(getattr(model, '_tip_motion', None)) or not model.task_dim:
+    if not callable(getattr(model, '_dynamics_and_tip', None)) or not model.task_dim:
         raise ArgumentError('model', 'adaptive_computed_torque estimates the body carried by the tip: it needs a URDF '
                                      'model with a tip')
 

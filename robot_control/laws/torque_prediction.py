@@ -36,6 +36,7 @@ class TorquePrediction:
         self.cutoff_hz, self.max_step = cutoff_hz, max_step
         self.W, self.r = np.zeros((n, 10)), np.zeros(n)
         self._last = None
+        self._dt = self._alpha_dt = None
 
     def record(self, t, qd, tau, M, h, tip_motion):
         """The tick at t (s): velocity qd (n,), the law's torque tau (n,), the model's M (n, n) and
@@ -51,10 +52,16 @@ class TorquePrediction:
         if not 0.0 < dt <= self.max_step:
             return False
         W, r = _prediction_sample(tau0, M0, h0, J0, Jdot0, a_g0, qd0, (qd - qd0) / dt)
-        alpha = 1.0 - math.exp(-2.0 * math.pi * self.cutoff_hz * dt)
+        alpha = self._alpha(dt)
         self.W += alpha * (W - self.W)
         self.r += alpha * (r - self.r)
         return True
+
+    def _alpha(self, dt):
+        """alpha = 1 - exp(-2 pi f dt) of the filter, for a step of dt s (the last one's kept)."""
+        if dt != self._dt:
+            self._dt, self._alpha_dt = dt, 1.0 - math.exp(-2.0 * math.pi * self.cutoff_hz * dt)
+        return self._alpha_dt
 
     def error(self, theta):
         """e = W_f theta - r_f (n,), N m."""

@@ -296,13 +296,27 @@ class UrdfModel(RobotModel):
         """(J, Jdot, a_g): the tip frame's Jacobian and its rate, (6, n) each, and the gravity (6,), spatial
         vectors (linear, then angular) in the tip frame at (q, qd), from one kinematics pass: the tip's
         velocity is J qd and its acceleration J qdd + Jdot qd; a_g the world's gravity carried to the frame."""
+        pin.computeJointJacobiansTimeVariation(self.model, self._data, self._map.q(q), self._map.v(qd))
+        return self._tip_frames()
+
+    def _tip_frames(self):
+        """_tip_motion's (J, Jdot, a_g) from the joints' Jacobians and their rates a pass left in data
+        (computeJointJacobiansTimeVariation, computeCoriolisMatrix)."""
         model, data, fid = self.model, self._data, self.frame_id
-        pin.computeJointJacobiansTimeVariation(model, data, self._map.q(q), self._map.v(qd))
         joint = model.frames[fid].parentJoint
         to_tip = pin.updateFramePlacement(model, data, fid).toActionMatrixInverse()    # world -> tip frame
-        J = to_tip @ self._columns(pin.getJointJacobian(model, data, joint, pin.WORLD))
-        Jdot = to_tip @ self._columns(pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD))
-        return J, Jdot, to_tip @ model.gravity.vector
+        J, Jdot = pin.getJointJacobian(model, data, joint, pin.WORLD), pin.getJointJacobianTimeVariation(
+            model, data, joint, pin.WORLD)
+        if not self._map.identity:
+            J, Jdot = J[:, self._map.iv], Jdot[:, self._map.iv]
+        return to_tip @ J, to_tip @ Jdot, to_tip @ model.gravity.vector
+
+    def _dynamics_and_tip(self, q, qd):
+        """(M, C, g, (J, Jdot, a_g)): _M, _C, _g and _tip_motion at (q, qd), the tip's from the Coriolis
+        matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in data)."""
+        C = self._C(q, qd)
+        tip = self._tip_frames()
+        return self._M(q), C, self._g(q), tip
 
     def _tip_regressor(self, q, qd, qr_d, qr_dd):
         """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
@@ -372,9 +386,12 @@ class UrdfModel(RobotModel):
 def tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd):
     """Y (n, 10) = J^T Y_b(v, v_r, a_r): a body's share, Y pi, of M(q) qr_dd + C(q, qd) qr_d + g(q) when it is
     carried by a frame with Jacobian J, its rate Jdot (6, n) and gravity a_g (6,) in that frame (UrdfModel
-    ._tip_motion), with v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g (_slotine_li_body_regressor);
-    vectors (n,) rad/s, rad/s^2."""
-    return J.T @ _slotine_li_body_regressor(J @ qd, J @ qr_d, J @ qr_dd + Jdot @ qr_d - a_g)
+    ._tip_motion), with v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g (_slotine_li_body_regressor,
+    evaluated by its coefficients: [a_r, (v v_r^T).ravel()] @ _SLOTINE_LI_COEFFICIENTS); vectors (n,) rad/s, rad/s^2."""
+    z = np.empty(42)
+    z[:6] = J @ qr_dd + Jdot @ qr_d - a_g
+    np.outer(J @ qd, J @ qr_d, out=z[6:].reshape(6, 6))
+    return J.T @ (z @ _SLOTINE_LI_COEFFICIENTS).reshape(6, 10)
 
 
 def tip_inertia_regressor(J, x):
@@ -402,6 +419,19 @@ def _slotine_li_body_regressor(v, v_r, a_r):
 
 #: A(e_i) (6, 6 x 10), row i: the body regressor I x = A(x) pi of the unit spatial vector x = e_i, flattened
 _BODY_REGRESSOR_BASIS = np.stack([pin.bodyRegressor(pin.Motion.Zero(), pin.Motion(e)).ravel() for e in np.eye(6)])
+
+
+def _slotine_li_coefficients():
+    """(42, 60): Y_b(v, v_r, a_r).ravel() = [a_r, (v v_r^T).ravel()] @ this, _slotine_li_body_regressor being
+    linear in a_r and bilinear in (v, v_r): its values on unit vectors."""
+    zero, unit = np.zeros(6), np.eye(6)
+    rows = [_slotine_li_body_regressor(zero, zero, e) for e in unit]
+    rows += [_slotine_li_body_regressor(e_i, e_j, zero) for e_i in unit for e_j in unit]
+    return np.stack([r.ravel() for r in rows])
+
+
+#: the coefficients of _slotine_li_body_regressor (tip_body_regressor's evaluation: one product per tick)
+_SLOTINE_LI_COEFFICIENTS = _slotine_li_coefficients()
 
 
 def payload_parameters(mass, com):

@@ -23,7 +23,7 @@ from robot_control.laws import Reference, State, adaptive_computed_torque, compu
 from robot_control.laws.adaptive_computed_torque import AdaptiveParams, _gamma_diagonal, project_payload
 from robot_control.laws.torque_prediction import TorquePrediction
 from robot_control.models import for_scenario, make_model
-from robot_control.models.urdf_model import payload_parameters
+from robot_control.models.urdf_model import _slotine_li_body_regressor, payload_parameters, tip_body_regressor
 from robot_control.param_table import ParameterError
 from robot_control.ros import controller_params as params
 from robot_control.ros.config_builder import ConfigBuilder
@@ -71,6 +71,19 @@ def test_with_the_payload_as_estimate_the_law_is_the_payload_model_s_slotine_li_
     kd = np.linspace(1.0, 7.0, 7)
     tau = adaptive_computed_torque(iiwa, q, qd, q_d, qd_d, qdd_d, theta, lam, kd)
     np.testing.assert_allclose(tau, by_pinocchio + lam * known.M(q) @ s - kd * s, rtol=0, atol=1e-9)
+
+
+def test_the_tick_s_terms_from_one_coriolis_pass_equal_the_model_s_own_calls(iiwa):
+    """_dynamics_and_tip (M, C, g and the tip's J, Jdot, a_g read after computeCoriolisMatrix) equals _M, _C, _g,
+    _tip_motion; tip_body_regressor (its coefficient form) equals _slotine_li_body_regressor carried by J."""
+    for _ in range(3):
+        q, qd, qr_d, qr_dd = _vectors(4)
+        M, C, g, (J, Jdot, a_g) = iiwa._dynamics_and_tip(q, qd)
+        for ours, theirs in zip((M, C, g, J, Jdot, a_g), (iiwa._M(q), iiwa._C(q, qd), iiwa._g(q), *iiwa._tip_motion(q, qd))):
+            np.testing.assert_array_equal(ours, theirs)
+        a_r = J @ qr_dd + Jdot @ qr_d - a_g
+        np.testing.assert_allclose(tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd),
+                                   J.T @ _slotine_li_body_regressor(J @ qd, J @ qr_d, a_r), rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize('kwargs, name', [
