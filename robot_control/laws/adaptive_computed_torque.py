@@ -97,8 +97,10 @@ def _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd=None):
     M, C, g, tip = model._dynamics_and_tip(q, qd)
     J, Jdot, a_g = tip
     Y = tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd)
-    K_D_s = kd * s if kd is not None else lam * (M @ s + tip_inertia_regressor(J, s) @ theta)
-    tau = M @ qr_dd + C @ qr_d + g + Y @ theta - K_D_s
+    if kd is None:          # K_D s = lam (M s + M_theta s): M (qr_dd - lam s) + (Y - lam Y_s) theta
+        tau = M @ (qr_dd - lam * s) + C @ qr_d + g + (Y - lam * tip_inertia_regressor(J, s)) @ theta
+    else:
+        tau = M @ qr_dd + C @ qr_d + g + Y @ theta - kd * s
     return tau, Y, s, (M, C @ qd + g, tip)
 
 

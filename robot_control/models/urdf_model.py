@@ -152,6 +152,7 @@ class UrdfModel(RobotModel):
         q_ref = _reference(full, movable, joints, q_locked)
         model = _reduced(full, [n for n in movable if n not in joints], q_ref)
         model.gravity = pin.Motion(gravity, np.zeros(3))
+        self._gravity = model.gravity.vector.copy()       # (6,) spatial, world frame
 
         self.joint_names = joints
         self.model = model                   # pinocchio Model (treat as read-only)
@@ -165,7 +166,8 @@ class UrdfModel(RobotModel):
         self.tip, self.frame_id, self.task_axes, self.tip_joints = None, None, (), ()
         if tip is not None:
             self.tip, self.frame_id = tip, _frame(model, tip)
-            moving = set(model.supports[model.frames[self.frame_id].parentJoint])
+            self._tip_joint = model.frames[self.frame_id].parentJoint     # the joint that carries the tip
+            moving = set(model.supports[self._tip_joint])
             self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
         self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
         if tip is not None:
@@ -302,14 +304,13 @@ class UrdfModel(RobotModel):
     def _tip_frames(self):
         """_tip_motion's (J, Jdot, a_g) from the joints' Jacobians and their rates a pass left in data
         (computeJointJacobiansTimeVariation, computeCoriolisMatrix)."""
-        model, data, fid = self.model, self._data, self.frame_id
-        joint = model.frames[fid].parentJoint
-        to_tip = pin.updateFramePlacement(model, data, fid).toActionMatrixInverse()    # world -> tip frame
+        model, data, joint = self.model, self._data, self._tip_joint
+        to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
         J, Jdot = pin.getJointJacobian(model, data, joint, pin.WORLD), pin.getJointJacobianTimeVariation(
             model, data, joint, pin.WORLD)
         if not self._map.identity:
             J, Jdot = J[:, self._map.iv], Jdot[:, self._map.iv]
-        return to_tip @ J, to_tip @ Jdot, to_tip @ model.gravity.vector
+        return to_tip @ J, to_tip @ Jdot, to_tip @ self._gravity
 
     def _dynamics_and_tip(self, q, qd):
         """(M, C, g, (J, Jdot, a_g)): _M, _C, _g and _tip_motion at (q, qd), the tip's from the Coriolis
