@@ -53,6 +53,8 @@ from robot_control.tools import processes
 #: B1's laws: case -> key stem of their figures
 LAWS = {'ct_2dof': 'law_us_ct_2dof', 'ct_7dof': 'law_us_ct_7dof', 'hybrid_7dof': 'law_us_hybrid_7dof',
         'impedance_7dof': 'law_us_impedance_7dof'}
+#: B1's laws for a real arm (benchmarks.bench_real_arm)
+LAWS.update({'joint_impedance_7dof': 'law_us_joint_impedance_7dof', 'adaptive_7dof': 'law_us_adaptive_7dof'})
 #: the targets: key -> (comparison, bound); the table marks each figure met or MISSED. Ratios of figures of
 #: the same run wherever the figure depends on the machine; latency and real-time factor are the loop's
 #: own requirements at 1 kHz.
@@ -61,6 +63,8 @@ TARGETS = {
     'law_vs_rnea_ct_7dof': ('<=', 8.0),
     'law_vs_rnea_hybrid_7dof': ('<=', 30.0),
     'law_vs_rnea_impedance_7dof': ('<=', 30.0),
+    'law_vs_rnea_joint_impedance_7dof': ('<=', 8.0),
+    'law_vs_rnea_adaptive_7dof': ('<=', 30.0),
     'speedup_vs_modern_robotics': ('>=', 20.0),
     'lockstep_vs_pingpong_ratio': ('>=', 0.8),
     'realtime_missed_vs_floor': ('<=', 1.5),
@@ -188,6 +192,7 @@ def law_cases(count):
     import pinocchio as pin
 
     from benchmarks.bench_mr import mr_chain
+    from benchmarks.bench_real_arm import real_arm_cases
     from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
     from robot_control.laws import computed_torque
@@ -219,6 +224,7 @@ def law_cases(count):
             'ct_7dof_checked': (computed_torque, ct7),
             **hybrid_cases(iiwa, states),
             **impedance_cases(for_scenario('iiwa', task_space='pose'), states),
+            **real_arm_cases(iiwa, states),
             'mr_ct_7dof': (mr.ComputedTorque, mr_in), 'pin_rnea': (pin.rnea, rnea)}
 
 

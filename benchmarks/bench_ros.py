@@ -24,7 +24,8 @@ The floor of B3: the same figures, counted the same way by the same observer, of
 (benchmarks.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
 physics, no law), run once before each run of REALTIME_RUNS and pooled (missed periods and periods
 summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
-Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance.
+Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance,
+_iiwa_joint_impedance_typical (joint impedance, its integral and friction compensation: the demo's iiwa_real_move).
 """
 import importlib
 import math
@@ -115,6 +116,8 @@ def node_executor(module):
 #: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)
 REALTIME_RUNS = {'polar': ('polar_two_link', None), 'iiwa': ('iiwa', None),
                  'iiwa_hybrid': ('iiwa', 'iiwa_hybrid_line'), 'iiwa_impedance': ('iiwa', 'impedance_push')}
+#: B3's run of joint impedance with friction compensation (the demo's iiwa_real_move), for the typical profile
+REALTIME_RUNS['iiwa_joint_impedance_typical'] = ('iiwa', 'iiwa_real_move')
 
 
 def experiment_params(name):

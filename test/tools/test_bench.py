@@ -27,6 +27,8 @@ KEYS = (
     *(f'law_us_{case}_checked_{stat}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')
       for stat in ('median', 'p99')),
     *(f'law_vs_rnea_{case}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')),
+    *(key.format(case) for case in ('joint_impedance_7dof', 'adaptive_7dof')
+      for key in ('law_vs_rnea_{}', 'law_us_{}_median', 'law_us_{}_checked_median')),
     'mr_ct_7dof_us_median', 'pin_rnea_us_median', 'speedup_vs_modern_robotics',
     'lockstep_steps_per_s_polar', 'lockstep_steps_per_s_iiwa', 'pingpong_roundtrips_per_s',
     'lockstep_vs_pingpong_ratio',
@@ -138,6 +140,9 @@ def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
     assert 'law:=impedance' in controller and 'task_space:=pose' in controller and 'surface.enable:=false' in bridge
     (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime')
     assert not any(a.startswith('law:=') for a in controller)
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime', 'iiwa_real_move')
+    assert 'law:=joint_impedance' in controller and 'integral:=true' in controller
+    assert any(a.startswith('friction_compensation.coulomb:=[1.8,') for a in controller)
     for run in bench_ros.REALTIME_RUNS:
         assert bench.TARGETS[f'realtime_rtf_{run}'] == bench.TARGETS['realtime_rtf']
     assert bench.TARGETS[f'realtime_missed_vs_floor_{run}'] == bench.TARGETS['realtime_missed_vs_floor']
@@ -149,7 +154,8 @@ def test_law_ticks_run_the_controllers_laws():
     from benchmarks import bench
     cases = bench.law_cases(3)
     names = {'ct_2dof': 'computed_torque', 'ct_7dof': 'computed_torque', 'hybrid_7dof': 'hybrid',
-             'impedance_7dof': 'impedance'}
+             'impedance_7dof': 'impedance', 'joint_impedance_7dof': 'joint_impedance',
+             'adaptive_7dof': 'adaptive_computed_torque'}
     assert set(names) == set(bench.LAWS)
     for case, name in names.items():
         tick, inputs = cases[case]
@@ -159,6 +165,8 @@ def test_law_ticks_run_the_controllers_laws():
             tick.load(*args)
             tau = tick(*args)
             assert tau.shape == (tick.law.model.n,) and np.isfinite(tau).all(), case
+            if case == 'adaptive_7dof':          # the estimate the tick adapted (rows 1 ms apart)
+                public_args = (*public_args[:6], tick.law.theta, *public_args[7:])
             np.testing.assert_allclose(tau, public(*public_args), rtol=0, atol=1e-12, err_msg=case)
 
 
