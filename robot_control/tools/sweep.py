@@ -1,7 +1,9 @@
 """`sweep`: Monte Carlo runs of an experiment over uncertain parameters, in process (docs/sweep.md).
 
-    sweep run SPEC.yaml [--workers N] [--out DIR] [--episodes N] [--seed S]
+    sweep run SPEC.yaml [--workers N] [--out DIR] [--episodes N] [--seed S] [--config FILE]
     sweep replay RUN K [--format npz|csv]
+    sweep tune SPEC.yaml [--workers N] [--out DIR] [--trials N]     (robot_control.tools.sweep_tune)
+    sweep grid SPEC.yaml [--workers N] [--out DIR]
 
 `run` runs the spec's episodes (each the rclpy-free Controller and the bridge's World in lockstep,
 robot_control.tools.sweep_episode) on N local worker processes (robot_control.tools.sweep_engine),
@@ -19,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep_report, sweep_spec
+from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep_report, sweep_spec, sweep_tune
 from robot_control.validation import ArgumentError
 
 TRACE = ('t', 'q', 'qd', 'tau_cmd', 'tau_applied', 'ref_pos', 'ref_vel', 'err_pos', 'err_vel', 'force_xyz')
@@ -37,6 +39,8 @@ def cmd_run(opts):
         spec = spec.with_episodes(opts.episodes)
     if opts.seed is not None:
         spec = sweep_spec.load({**spec.text, 'seed': opts.seed})
+    if opts.config:
+        spec = sweep_spec.load({**spec.text, 'config': [*(spec.text.get('config') or ()), *opts.config]})
     out = Path(opts.out or Path('out') / 'sweep' / Path(opts.spec).stem)
     rows, progress = sweep_engine.run_local(spec, out, opts.workers)
     columns = sweep_episode.columns(sweep_episode.plan(spec))
@@ -114,12 +118,15 @@ def parser():
     r.add_argument('--out', default=None, help='run directory (default out/sweep/<spec name>)')
     r.add_argument('--episodes', type=int, default=None, help="override the spec's episode count")
     r.add_argument('--seed', type=int, default=None, help="override the spec's run seed")
+    r.add_argument('--config', action='append', default=[], metavar='FILE',
+                   help="a parameter file stacked after the spec's (e.g. the gains.yaml of sweep tune); repeatable")
     r.set_defaults(func=cmd_run)
     y = sub.add_parser('replay', help='rerun one episode of a run: its trajectory and figure')
     y.add_argument('run', help='the run directory')
     y.add_argument('k', type=int, metavar='K', help='the episode index')
     y.add_argument('--format', choices=('npz', 'csv'), default='npz')
     y.set_defaults(func=cmd_replay)
+    sweep_tune.add_commands(sub)
     return p
 
 
