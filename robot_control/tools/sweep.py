@@ -1,6 +1,6 @@
 """`sweep`: Monte Carlo runs of an experiment over uncertain parameters, in process (docs/sweep.md).
 
-    sweep run SPEC.yaml [--workers N] [--out DIR] [--episodes N] [--seed S] [--config FILE]
+    sweep run SPEC.yaml [--workers N] [--out DIR] [--episodes N] [--seed S]
     sweep replay RUN K [--format npz|csv]
     sweep tune SPEC.yaml [--workers N] [--out DIR] [--trials N]     (robot_control.tools.sweep_tune)
     sweep grid SPEC.yaml [--workers N] [--out DIR]
@@ -39,8 +39,6 @@ def cmd_run(opts):
         spec = spec.with_episodes(opts.episodes)
     if opts.seed is not None:
         spec = sweep_spec.load({**spec.text, 'seed': opts.seed})
-    if opts.config:
-        spec = sweep_spec.load({**spec.text, 'config': [*(spec.text.get('config') or ()), *opts.config]})
     out = Path(opts.out or Path('out') / 'sweep' / Path(opts.spec).stem)
     rows, progress = sweep_engine.run_local(spec, out, opts.workers)
     columns = sweep_episode.columns(sweep_episode.plan(spec))
@@ -118,8 +116,6 @@ def parser():
     r.add_argument('--out', default=None, help='run directory (default out/sweep/<spec name>)')
     r.add_argument('--episodes', type=int, default=None, help="override the spec's episode count")
     r.add_argument('--seed', type=int, default=None, help="override the spec's run seed")
-    r.add_argument('--config', action='append', default=[], metavar='FILE',
-                   help="a parameter file stacked after the spec's (e.g. the gains.yaml of sweep tune); repeatable")
     r.set_defaults(func=cmd_run)
     y = sub.add_parser('replay', help='rerun one episode of a run: its trajectory and figure')
     y.add_argument('run', help='the run directory')

@@ -20,13 +20,16 @@ kept). The chosen point of the Pareto front (the feasible trials no other feasib
 
 (ties: the smaller objective_1, then the earlier trial). It is written as RUN/gains.yaml, a `--params-file`
 of the controller node (`/**/controller: ros__parameters:` the law, the spec's `controller:` overrides and
-the chosen values), which is read back through the controller's parameter table and ConfigBuilder.
+the chosen values), which is read back through the controller's parameter table and ConfigBuilder. With
+`tune.evaluate: {episodes: N, seed: S}` that file (stacked after the spec's `config` files) is then scored on
+N episodes of run seed S (robots the tune did not see) in RUN/evaluation/ (episodes.csv, summary.json, plots).
 
 `grid`: every combination of the values of two controller parameters (`grid: {x_name: [...], y_name: [...]}`)
 scored on the batch: its pass rate (robot_control.tools.sweep_report.summary), RUN/grid.csv, RUN/map.png.
 """
 import csv
 import fcntl
+import hashlib
 import itertools
 import json
 import math
@@ -40,7 +43,8 @@ from robot_control.tools import sweep_engine, sweep_episode, sweep_report
 from robot_control.tools import sweep_spec as specs
 from robot_control.validation import ArgumentError
 
-TUNE_KEYS = ('parameters', 'trials', 'batch', 'percentile', 'objectives', 'start', 'error_tolerance', 'seed')
+TUNE_KEYS = ('parameters', 'trials', 'batch', 'percentile', 'objectives', 'start', 'error_tolerance', 'seed',
+             'evaluate')
 SEARCH_KINDS = ('uniform', 'loguniform', 'integers', 'choice')
 CONSTRAINTS = ('unstable', 'saturated_ticks')      # Optuna's constraint names (trial.set_constraint)
 OBJECTIVE_METRICS = ('rms_error', 'max_error', 'final_error', 'peak_torque', 'force_rms_error', 'force_max_error')
@@ -126,6 +130,12 @@ def tune_settings(spec):
                seed=_number('tune.seed', t.get('seed', spec.seed), int, 0))
     if out['percentile'] > 100:
         raise ArgumentError('tune.percentile', f'expected 0 .. 100, got {out["percentile"]}')
+    ev = t.get('evaluate')
+    if ev is not None:
+        if not isinstance(ev, dict) or set(ev) - {'episodes', 'seed'}:
+            raise ArgumentError('tune.evaluate', 'expected {episodes: N, seed: S}')
+        out['evaluate'] = {'episodes': _number('tune.evaluate.episodes', ev.get('episodes', spec.episodes), int, 1),
+                           'seed': _number('tune.evaluate.seed', ev.get('seed', spec.seed + 1), int, 0)}
     return out
 
 
@@ -157,6 +167,17 @@ def gain_values(plan, search, suggested):
     return out
 
 
+#: tune keys that change no trial: a stored study goes on when only they change
+NOT_IN_STUDY = ('trials', 'error_tolerance', 'evaluate')
+
+
+def study_name(spec):
+    """The stored study's name: a hash of the spec but its episode count and the tune keys NOT_IN_STUDY."""
+    tune = {k: v for k, v in spec.text['tune'].items() if k not in NOT_IN_STUDY}
+    text = {k: v for k, v in spec.text.items() if k not in ('episodes', 'tune')}
+    return hashlib.sha256(json.dumps({**text, 'tune': tune}, sort_keys=True).encode()).hexdigest()[:16]
+
+
 # -- the study ------------------------------------------------------------------------------------------------------
 class Tuner:
     """One `sweep tune` run directory: the spec, its settings, the Optuna study in out/study.db."""
@@ -175,20 +196,35 @@ class Tuner:
         self.out.mkdir(parents=True, exist_ok=True)
         self._lock = open(self.out / 'tune.lock', 'w')
         try:
-            fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise ArgumentError('out', f'{self.out} is being tuned by another process') from None
-        optuna.logging.set_verbosity(optuna.logging.WARNING)
-        self.study = optuna.create_study(
-            study_name=spec.digest, storage=f'sqlite:///{self.out / "study.db"}', load_if_exists=True,
-            directions=['minimize', 'minimize'])
-        self.study.sampler = self._sampler()      # seeded past the trials stored: a resumed run draws anew
+            try:
+                fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise ArgumentError('out', f'{self.out} is being tuned by another process') from None
+            self.study = self._study()
+        except BaseException:
+            self.close()
+            raise
 
-    def _sampler(self):
+    def _study(self):
+        """The stored study of this spec (created on the first run), its sampler seeded past its trials."""
+        optuna = self.optuna
+        optuna.logging.set_verbosity(optuna.logging.WARNING)
+        storage, name = f'sqlite:///{self.out / "study.db"}', study_name(self.spec)
+        others = [n for n in optuna.get_all_study_names(storage) if n != name]
+        if others:
+            raise ArgumentError('out', f'{self.out} holds a tune of another spec (study {others[0]}, this one '
+                                       f'{name}): choose another --out')
+        study = optuna.create_study(study_name=name, storage=storage, load_if_exists=True,
+                                    directions=['minimize', 'minimize'])
+        done = sum(t.state.name == 'COMPLETE' for t in study.get_trials(deepcopy=False))
         s = self.settings
-        done = len(self.trials())
-        return self.optuna.samplers.TPESampler(
+        study.sampler = optuna.samplers.TPESampler(      # seeded past the trials stored: a resumed run draws anew
             seed=s['seed'] + done, multivariate=True, n_startup_trials=max(2, min(10, s['trials'] // 3)))
+        return study
+
+    def close(self):
+        """Release the run directory (its lock)."""
+        self._lock.close()
 
     def trials(self, states=('COMPLETE',)):
         return [t for t in self.study.get_trials(deepcopy=False) if t.state.name in states]
@@ -297,13 +333,29 @@ def gains_yaml(tuner, trial, path):
             f'# ros2 run robot_control controller_node --ros-args {files} --params-file {path.name}']
     text = yaml.dump({'/**/controller': {'ros__parameters': nested(params)}}, Dumper=_Dumper, sort_keys=False)
     path.write_text('\n'.join(head) + '\n' + text)
-    check = batch_spec(specs.load({**spec.text, 'config': [*(spec.text.get('config') or ()), str(path.resolve())],
-                                   'controller': {}}), {}, 1)
-    p_check = sweep_episode.plan(check)        # the controller's table validates, ConfigBuilder builds
+    p_check = sweep_episode.plan(file_spec(spec, path, 1, spec.seed))   # the table validates, ConfigBuilder builds
     for name, value in params.items():
         if p_check.values['controller'].get(name) != value:
             raise RuntimeError(f'{path}: {name} reads back as {p_check.values["controller"].get(name)!r}, not {value!r}')
     return params
+
+
+def file_spec(spec, path, episodes, seed):
+    """The spec run with the gains file `path` stacked after its `config` files in place of its `controller:`
+    overrides (the file holds them), `episodes` of run seed `seed`."""
+    return batch_spec(specs.load({**spec.text, 'config': [*(spec.text.get('config') or ()), str(Path(path).resolve())],
+                                  'controller': {}, 'seed': seed}), {}, episodes)
+
+
+def evaluate(tuner, path, workers):
+    """The gains file scored on tune.evaluate's episodes (another seed than the batch's: robots the tune did not
+    see), run in out/evaluation/<hash of the file> with its summary and plots: (the summary, that directory)."""
+    ev = tuner.settings['evaluate']
+    one = file_spec(tuner.spec, path, ev['episodes'], ev['seed'])
+    where = tuner.out / 'evaluation' / hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    with open(os.devnull, 'w') as quiet:
+        rows, _ = sweep_engine.run_local(one, where, workers, say=lambda text: None, stream=quiet)
+    return sweep_report.write(where, rows, one, []), where
 
 
 def trial_table(tuner, front, chosen, path):
@@ -365,6 +417,10 @@ def finish(tuner):
         params = gains_yaml(tuner, chosen, tuner.out / 'gains.yaml')
         result['chosen'] = {'trial': chosen.number, 'values': list(chosen.values), 'searched': chosen.params,
                             'parameters': params, 'pass_rate': chosen.user_attrs['pass_rate']}
+        if 'evaluate' in tuner.settings:
+            s, where = evaluate(tuner, tuner.out / 'gains.yaml', tuner.workers)
+            result['evaluation'] = {k: s[k] for k in ('episodes', 'seed', 'passed', 'pass_rate', 'stable')}
+            result['evaluation']['directory'] = str(where)
     starts = [t for t in tuner.trials() if t.user_attrs.get('start')]
     if starts:
         result['start'] = {'trial': starts[0].number, 'values': list(starts[0].values),
@@ -435,14 +491,21 @@ def cmd_tune(opts):
     spec = specs.load(opts.spec)
     out = Path(opts.out or Path('out') / 'tune' / Path(opts.spec).stem)
     tuner = Tuner(spec, out, opts.workers, opts.trials)
-    ran = tuner.run()
-    result = finish(tuner)
+    try:
+        ran = tuner.run()
+        result = finish(tuner)
+    finally:
+        tuner.close()
     print(f'{result["trials"]} trials ({ran} run here), Pareto front: trials {result["front"]}')
     if result['chosen'] is None:
         print('no trial is feasible (every one had an unstable episode or a saturated tick): no gains.yaml')
         return 1
     chosen = next(t for t in tuner.trials() if t.number == result['chosen']['trial'])
     print(f'chosen: trial {chosen.number}: {describe(chosen, tuner.settings)}')
+    if 'evaluation' in result:
+        e = result['evaluation']
+        print(f'gains.yaml on {e["episodes"]} other episodes (seed {e["seed"]}): passed {e["passed"]} '
+              f'({100 * e["pass_rate"]:.1f} %), stable {e["stable"]}: {e["directory"]}/summary.json')
     print(f'results: {out}/gains.yaml, pareto.png, trials.csv, tune.json, study.db')
     return 0
 

@@ -4,6 +4,7 @@ in all (the trial cut short run again), the Pareto front holds exactly the non-d
 grid's pass rates separate a slow design from a fast one."""
 import contextlib
 import csv
+import json
 import math
 import os
 import signal
@@ -11,6 +12,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import optuna
 import pytest
@@ -56,7 +58,7 @@ def dominated(a, b):
 
 
 def test_tune_beats_a_slow_start_and_writes_a_params_file_the_controller_reads(tmp_path, capsys):
-    spec = polar_spec(tmp_path)
+    spec = polar_spec(tmp_path, evaluate={'episodes': 4, 'seed': 11})
     out = tmp_path / 'run'
     assert sweep.main(['tune', str(spec), '--out', str(out), '--workers', '0']) == 0
     rows = table(out / 'trials.csv')
@@ -84,6 +86,11 @@ def test_tune_beats_a_slow_start_and_writes_a_params_file_the_controller_reads(t
     assert cfg.gains.kv.tolist() == pytest.approx([2 * given['zeta'] * omega_n] * 2, rel=1e-12)
     assert imread(out / 'pareto.png').shape[0] > 100
     assert 'chosen: trial' in capsys.readouterr().out
+    # the file scored on 4 robots of another seed: the slow start passed none of its batch, the file all
+    result = json.loads((out / 'tune.json').read_text())
+    assert result['evaluation']['seed'] == 11 and result['evaluation']['pass_rate'] == 1.0
+    evaluated = yaml.safe_load((Path(result['evaluation']['directory']) / 'spec.yaml').read_text())
+    assert evaluated['config'] == [str((out / 'gains.yaml').resolve())] and evaluated['controller'] == {}
 
 
 def test_the_pareto_front_is_the_non_dominated_feasible_trials(tmp_path):
@@ -158,6 +165,14 @@ def test_an_interrupted_tune_resumes_to_n_trials_in_all(tmp_path):
     # a finished run asked for the same number of trials runs none
     assert sweep.main(['tune', str(spec), '--out', str(out), '--workers', '0']) == 0
     assert study_counts(db) == {'COMPLETE': 4, 'FAIL': 1}
+    # another search in the same directory is refused; a change of the trial count only is the same study
+    text = yaml.safe_load(spec.read_text())
+    with pytest.raises(ArgumentError) as exc:
+        sweep_tune.Tuner(sweep_spec.load({**text, 'tune': {**text['tune'], 'percentile': 50}}), out)
+    assert exc.value.name == 'out'
+    more = sweep_tune.Tuner(sweep_spec.load({**text, 'tune': {**text['tune'], 'trials': 9}}), out)
+    assert len(more.trials()) == 4
+    more.close()
 
 
 def test_grid_pass_rates_separate_a_slow_design_from_a_fast_one(tmp_path):
