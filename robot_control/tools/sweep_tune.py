@@ -6,11 +6,12 @@ into RUN/batches/<spec digest>/. The batch's draws depend on the spec's seed and
 every choice meets the same B robots, and a batch cut short resumes where it stopped.
 
     objective_i(g) = P_p { m_i(episode) : episodes of the batch }     (m_i: rms_error, peak_torque, ...;
-                                                                       P_p: the p-th percentile; a value
-                                                                       that is not finite counts as +inf)
+                                                                       P_p: the p-th percentile, the value
+                                                                       of an episode (numpy's 'higher');
+                                                                       one not finite counts as +inf)
     constraints(g) = (episodes not stable, saturated ticks summed)    feasible when both are 0
 
-`tune`: Optuna (TPE, multi-objective, constraints_func) minimises (objective_1, objective_2) over the
+`tune`: Optuna (TPE, multi-objective, the constraints set per trial) minimises (objective_1, objective_2) over the
 spec's `tune.parameters`; the study lives in RUN/study.db (SQLite), so a rerun continues it up to
 `tune.trials` finished trials (a trial cut short by an interruption is run again, its finished episodes
 kept). The chosen point of the Pareto front (the feasible trials no other feasible trial dominates):
@@ -317,6 +318,16 @@ class _Dumper(yaml.SafeDumper):
 _Dumper.add_representer(list, lambda d, v: d.represent_sequence('tag:yaml.org,2002:seq', v, flow_style=True))
 
 
+def controller_files(spec, scenario):
+    """The spec's `config` files that hold a controller section (a realism profile holds the bridge's only)."""
+    out = []
+    for name in spec.text.get('config') or ():
+        path = sweep_episode.parameter_file(name, scenario)
+        if sweep_episode.SECTIONS['controller'] in (yaml.safe_load(path.read_text()) or {}):
+            out.append(name)
+    return out
+
+
 def gains_yaml(tuner, trial, path):
     """Write the chosen trial as a controller `--params-file` (module docstring) and read it back: the spec's
     files then it, through the controller's parameter table and ConfigBuilder; returns the file's parameters."""
@@ -324,8 +335,8 @@ def gains_yaml(tuner, trial, path):
     params = {'law': tuner.plan.values['controller']['law'], **(spec.text.get('controller') or {}),
               **trial.user_attrs['gains']}
     p = f'p{s["percentile"]:g}'
-    files = ' '.join(f'--params-file {f}' for f in [f'config/{tuner.plan.experiment.scenario}.yaml',
-                                                      *(spec.text.get('config') or ())])
+    scenario = tuner.plan.experiment.scenario
+    files = ' '.join(f'--params-file {f}' for f in [f'config/{scenario}.yaml', *controller_files(spec, scenario)])
     head = [f'# sweep tune: trial {trial.number} of {len(tuner.trials())}, the least {s["objectives"][1]} among the '
             f'Pareto front within {100 * s["error_tolerance"]:g} % of its best {s["objectives"][0]}:',
             f'# {p} {s["objectives"][0]} {trial.values[0]:.6g}, {p} {s["objectives"][1]} {trial.values[1]:.6g}, '
@@ -336,7 +347,8 @@ def gains_yaml(tuner, trial, path):
     p_check = sweep_episode.plan(file_spec(spec, path, 1, spec.seed))   # the table validates, ConfigBuilder builds
     for name, value in params.items():
         if p_check.values['controller'].get(name) != value:
-            raise RuntimeError(f'{path}: {name} reads back as {p_check.values["controller"].get(name)!r}, not {value!r}')
+            raise RuntimeError(f'{path}: {name} reads back as {p_check.values["controller"].get(name)!r}, '
+                               f'not {value!r}')
     return params
 
 
@@ -349,10 +361,11 @@ def file_spec(spec, path, episodes, seed):
 
 def evaluate(tuner, path, workers):
     """The gains file scored on tune.evaluate's episodes (another seed than the batch's: robots the tune did not
-    see), run in out/evaluation/<hash of the file> with its summary and plots: (the summary, that directory)."""
+    see), run in out/evaluation/<hash of its parameters> with its summary and plots: (the summary, that directory)."""
     ev = tuner.settings['evaluate']
     one = file_spec(tuner.spec, path, ev['episodes'], ev['seed'])
-    where = tuner.out / 'evaluation' / hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    values = json.dumps(yaml.safe_load(Path(path).read_text()), sort_keys=True)      # not its comments
+    where = tuner.out / 'evaluation' / hashlib.sha256(values.encode()).hexdigest()[:16]
     with open(os.devnull, 'w') as quiet:
         rows, _ = sweep_engine.run_local(one, where, workers, say=lambda text: None, stream=quiet)
     return sweep_report.write(where, rows, one, []), where
@@ -381,11 +394,18 @@ def pareto_plot(tuner, front, chosen, path):
     fig = Figure(figsize=(6.4, 4.6), layout='constrained')
     FigureCanvasAgg(fig)
     ax = fig.subplots()
-    for group, style in ((lambda t: feasible(t), dict(color='tab:blue', marker='o', label='feasible')),
-                         (lambda t: not feasible(t), dict(color='tab:red', marker='x', label='unstable or saturated'))):
-        pts = np.array([t.values for t in trials if group(t)], dtype=float).reshape(-1, 2)
-        pts = pts[np.all(np.isfinite(pts), axis=1)]
-        ax.scatter(pts[:, 0], pts[:, 1], s=18, linestyle='none', **style)
+    ok = np.array([t.values for t in trials if feasible(t)], dtype=float).reshape(-1, 2)
+    bad = np.array([t.values for t in trials if not feasible(t)], dtype=float).reshape(-1, 2)
+    lo, hi = (ok.min(axis=0), ok.max(axis=0)) if len(ok) else (np.zeros(2), np.full(2, np.inf))
+    span = np.maximum(hi - lo, 0.1 * np.abs(hi))
+    lo, hi = lo - 0.15 * span, hi + 0.15 * span            # the axes: the feasible trials, 15 % around
+    inside = np.all((bad >= lo) & (bad <= hi), axis=1) if len(ok) else np.all(np.isfinite(bad), axis=1)
+    ax.scatter(ok[:, 0], ok[:, 1], s=18, color='tab:blue', marker='o', label='feasible')
+    ax.scatter(bad[inside, 0], bad[inside, 1], s=18, color='tab:red', marker='x',
+               label=f'unstable or saturated ({int(np.sum(~inside))} more off the axes)')
+    if len(ok):
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
     if front:
         pts = np.array(sorted(t.values for t in front))
         ax.step(pts[:, 0], pts[:, 1], where='post', color='k', lw=1.0, label=f'Pareto front ({len(front)})')

@@ -1,12 +1,13 @@
 """sweep tune and sweep grid on the polar robot: tuning beats a deliberately slow start on the objective, the
-gains file is a controller --params-file its parameter reader accepts, an interrupted tune resumes to N trials
-in all (the trial cut short run again), the Pareto front holds exactly the non-dominated feasible trials, and a
-grid's pass rates separate a slow design from a fast one."""
+gains file is a --params-file the controller's parameter reader accepts and the node runs with, an interrupted
+tune resumes to N trials in all (the trial cut short run again), the Pareto front holds exactly the
+non-dominated feasible trials, and a grid's pass rates separate a slow design from a fast one."""
 import contextlib
 import csv
 import json
 import math
 import os
+import select
 import signal
 import sqlite3
 import subprocess
@@ -52,6 +53,30 @@ def table(path):
         return list(csv.DictReader(f))
 
 
+def node_ready(*params_files, timeout=120):
+    """The controller node's output up to its 'ready:' line, started with the params files (then stopped)."""
+    args = [a for f in params_files for a in ('--params-file', f)]
+    proc = subprocess.Popen([sys.executable, '-m', 'robot_control.ros.controller_node', '--ros-args', *args],
+                            cwd=ROOT, env={**env(), 'PYTHONUNBUFFERED': '1'}, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    out, deadline = '', time.monotonic() + timeout
+    try:
+        while time.monotonic() < deadline and 'ready:' not in out:
+            ready, _, _ = select.select([proc.stdout], [], [], 0.1)
+            line = proc.stdout.readline() if ready else ''
+            if ready and not line:
+                break
+            out += line
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert 'ready:' in out, out
+    return out
+
+
 def dominated(a, b):
     """b dominates a: no worse in both objectives, better in one."""
     return all(y <= x for x, y in zip(a, b)) and any(y < x for x, y in zip(a, b))
@@ -86,6 +111,9 @@ def test_tune_beats_a_slow_start_and_writes_a_params_file_the_controller_reads(t
     assert cfg.gains.kv.tolist() == pytest.approx([2 * given['zeta'] * omega_n] * 2, rel=1e-12)
     assert imread(out / 'pareto.png').shape[0] > 100
     assert 'chosen: trial' in capsys.readouterr().out
+    # ... and the controller node started with it reports the same gains in force
+    assert f'kp {cfg.gains.kp.tolist()}' in node_ready(os.path.join(ROOT, 'config', 'polar_two_link.yaml'),
+                                                        str(out / 'gains.yaml'))
     # the file scored on 4 robots of another seed: the slow start passed none of its batch, the file all
     result = json.loads((out / 'tune.json').read_text())
     assert result['evaluation']['seed'] == 11 and result['evaluation']['pass_rate'] == 1.0
@@ -160,7 +188,8 @@ def test_an_interrupted_tune_resumes_to_n_trials_in_all(tmp_path):
     assert {t.number: t.params for t in complete if t.number in done_before} == done_before
     assert study.trials[cut.number].state.name == 'FAIL'
     retry = [t for t in complete if t.user_attrs.get('retry_of') == cut.number]
-    assert len(retry) == 1 and cut.params.items() <= retry[0].params.items()   # (killed before its last suggestion: a part)
+    # the cut trial's values (a part when it was killed between two suggestions) asked for again
+    assert len(retry) == 1 and cut.params.items() <= retry[0].params.items()
     assert len(table(out / 'trials.csv')) == 4
     # a finished run asked for the same number of trials runs none
     assert sweep.main(['tune', str(spec), '--out', str(out), '--workers', '0']) == 0
