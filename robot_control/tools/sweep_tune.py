@@ -152,16 +152,17 @@ def suggest(trial, name, dist):
 
 def gain_values(plan, search, suggested):
     """{controller parameter: value} of suggested values: a relative one times the parameter's base value
-    (every entry of an array), an integer parameter rounded."""
+    (every entry of an array), an array one the same value in every entry of its base (as many as the
+    motion coordinates when its base is empty, as kp's), an integer parameter rounded."""
     out = {}
     for name, dist in search.items():
         row = plan.tables['controller'][name]
         value = suggested[name]
+        base = plan.values['controller'].get(name, row.default)
         if dist.relative:
-            base = plan.values['controller'].get(name, row.default)
             value = [float(value) * float(b) for b in base] if row.is_array else float(value) * float(base)
         elif row.is_array:
-            value = [float(value)]
+            value = [float(value)] * (len(base) or len(plan.coordinates))
         if row.type in ('integer', 'integer_array'):
             value = [int(round(v)) for v in value] if row.is_array else int(round(value))
         out[name] = value

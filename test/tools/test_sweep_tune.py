@@ -244,4 +244,7 @@ def test_the_values_searched_scale_an_array_parameter_when_relative():
               'joint_damping_ratio': sweep_spec.distribution('joint_damping_ratio', {'uniform': [0.5, 2.0]})}
     values = sweep_tune.gain_values(plan, search, {'joint_stiffness': 2.5, 'joint_damping_ratio': 0.8})
     assert values == {'joint_stiffness': [100.0, 500.0], 'joint_damping_ratio': 0.8}
+    # an array searched as one value: every entry (kp, kv: empty by default, one per joint)
+    explicit = {g: sweep_spec.distribution(g, {'uniform': [1.0, 100.0]}) for g in ('kp', 'kv')}
+    assert sweep_tune.gain_values(plan, explicit, {'kp': 49.0, 'kv': 14.0}) == {'kp': [49.0, 49.0], 'kv': [14.0, 14.0]}
     assert math.isinf(sweep_tune.percentile([{'m': 1.0}, {'m': math.nan}], 'm', 95))
