@@ -2,6 +2,8 @@
 
     sweep run SPEC.yaml [--workers N] [--out DIR] [--episodes N] [--seed S]
     sweep replay RUN K [--format npz|csv]
+    sweep tune SPEC.yaml [--workers N] [--out DIR] [--trials N]     (robot_control.tools.sweep_tune)
+    sweep grid SPEC.yaml [--workers N] [--out DIR]
 
 `run` runs the spec's episodes (each the rclpy-free Controller and the bridge's World in lockstep,
 robot_control.tools.sweep_episode) on N local worker processes (robot_control.tools.sweep_engine),
@@ -19,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep_report, sweep_spec
+from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep_report, sweep_spec, sweep_tune
 from robot_control.validation import ArgumentError
 
 TRACE = ('t', 'q', 'qd', 'tau_cmd', 'tau_applied', 'ref_pos', 'ref_vel', 'err_pos', 'err_vel', 'force_xyz')
@@ -123,6 +125,7 @@ def parser():
     y.add_argument('k', type=int, metavar='K', help='the episode index')
     y.add_argument('--format', choices=('npz', 'csv'), default='npz')
     y.set_defaults(func=cmd_replay)
+    sweep_tune.add_commands(sub)
     return p
 
 

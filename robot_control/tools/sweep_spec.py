@@ -42,7 +42,8 @@ NODES = ('controller', 'sim_bridge')
 KINDS = ('uniform', 'normal', 'loguniform', 'integers', 'choice')
 #: the spec's keys and what they hold
 KEYS = ('name', 'experiment', 'scenario', 'law', 'config', 'controller', 'bridge', 'trajectory', 'duration',
-        'episodes', 'seed', 'sample', 'criteria', 'settle_from', 'steady_window', 'force', 'stability_limit')
+        'episodes', 'seed', 'sample', 'criteria', 'settle_from', 'steady_window', 'force', 'stability_limit',
+        'tune', 'grid')
 #: metrics a criterion may bound (upper limits), see robot_control.tools.sweep_episode.METRICS
 CRITERIA = ('rms_error', 'max_error', 'final_error', 'peak_torque', 'saturated_ticks', 'force_rms_error',
             'force_max_error')
