@@ -420,8 +420,11 @@ class LiveRun:
 
     def start_nodes(self, scenario, bridge_params, controller_params, bridge_profiles=()):
         """Start the bridge (the scenario's file, then `bridge_profiles`, stacked) and pause it once it is up,
-        start the controller, wait until it is connected."""
+        start the controller (in lockstep with wrench_wait 0: each state waits for its own tick's wrench however
+        late a busy machine hands it over), wait until it is connected."""
         control, collector = self.control, self.collector
+        if bridge_params.get('mode') == 'lockstep':    # the bridge waits for the command: no hurry for a wrench
+            controller_params = {'wrench_wait': 0.0, **controller_params}
         self.bridge = self._start('sim_bridge', 'sim_bridge.bridge_node', scenario, bridge_params, BRIDGE_ARGS,
                                   bridge_profiles)
         control.spin_until(lambda: (collector.publishers('/joint_states') > 0
