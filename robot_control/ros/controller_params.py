@@ -235,6 +235,10 @@ def node_rows():
         Row('publish_effort_array', 'bool', False,
             'also publish effort_controller/commands (std_msgs/Float64MultiArray, joints order)'),
         Row('diagnostics_period', 'double', 0.5, 'period of /diagnostics, s (wall clock)', [gt(0)]),
+        Row('wrench_wait', 'double', 0.005, 'longest wait of a state for the ft_sensor/wrench stamped like it '
+            '(force laws, once the two streams are paired), s (wall clock); 0 = until it comes (lockstep: the '
+            'simulator publishes a tick\'s wrench before its state and waits for the command)', [gt_eq(0)],
+            read_only=True),
         Row('autostart', 'bool', True,
             'configure and activate at start-up (false: wait for lifecycle transitions, e.g. ros2 lifecycle set)',
             read_only=True),

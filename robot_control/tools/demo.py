@@ -32,10 +32,11 @@ controller that cannot answer every 1 ms tick degrades the response accordingly.
 A run, all waits bounded: start the recorder; start the bridge and pause it; start the controller
 and wait until it is connected; wait for the first tick of every stream (t = 0 is the origin in
 lockstep); send the experiment's references stamped at origin + t (the controller confirms in its
-log) and resume; run for `duration` s of simulation, sending force references as they fall due and
-changing the bridge's run-time parameters when their time has come (pause, set, resume: BridgeSchedule);
-pause, wait for the last tick, stop the recorder and the processes; align the collected messages
-per control tick; compute the metrics, plot (robot_control.tools.plot.tracking_figure), write the files.
+log) and resume; run for `duration` s of simulation, sending the later force references and changing
+the bridge's run-time parameters while the bridge stands still at simulation times (pause_at, make the
+change, resume: Schedule); pause, wait for the last tick, stop the recorder and the processes; align the
+collected messages per control tick; compute the metrics, plot (robot_control.tools.plot.tracking_figure),
+write the files.
 """
 import argparse
 import json
@@ -274,13 +275,13 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
                          [realism[1]] if realism[1] else [])
         origin_ns = live.wait_for_first_tick(mode)
         live.send_references(joints, experiment.trajectory, origin_ns)
-        changes = BridgeSchedule(experiment.bridge_events, origin_ns, say)
+        changes = Schedule(experiment.bridge_events, origin_ns, say, experiment.force_events, f_names)
         changes.arm(live)
         live.resume()
         end_ns = origin_ns + int(round(duration * NS))
         progress = Progress(live.collector, origin_ns, units, f_names, say if write else None)
         say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
-        live.run_until(end_ns, (ForceSchedule(experiment.force_events, f_names, origin_ns, say), changes), progress)
+        live.run_until(end_ns, (changes,), progress)
         live.pause()
         wall = time.monotonic() - t_wall0
         live.wait_for_last_tick(end_ns)
@@ -327,61 +328,69 @@ def controller_params(experiment):
     return params
 
 
-class ForceSchedule:
-    """The experiment's force references ((t, f per axis), ...), each sent as soon as the one before
-    it is due (the first at once), stamped with its time: the controller holds it and applies it at
-    exactly that tick (repeatable in lockstep)."""
+class Schedule:
+    """The experiment's timed changes, each made while the bridge stands still: changes of its run-time
+    parameters ((t, {name: value}), ...) and force references ((t, f per axis), ...). The bridge pauses itself
+    at the next change's time (its pause_at, armed for the next change), the changes due are made and it
+    resumes.
 
-    def __init__(self, events, axes, origin_ns, say):
-        self.events = sorted(events)
+    A parameter change acts from the tick the bridge paused at (its step to the next tick is the first with
+    it), the first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s,
+    'parameters': {name: value}}]. A force reference is sent stamped with its time t while the bridge stands
+    before t (the first by `arm`, before the run starts; each later one at the midpoint between the one
+    before it and t) and the controller confirms that it holds it: it applies it at exactly the first tick at
+    or past t, however late the wall clock would have delivered it, so lockstep runs repeat exactly."""
+
+    BRIDGE, FORCE = 1, 0     # the order of two changes at one time: the force reference first
+
+    def __init__(self, events, origin_ns, say, forces=(), axes=()):
+        self.origin_ns = origin_ns
+        self.say = say
         self.axes = axes
-        self.origin_ns = origin_ns
-        self.say = say
-        self.next_send_ns = origin_ns
-
-    def send_due(self, live, stamp_ns):
-        """Send what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
-        while self.events and stamp_ns >= self.next_send_ns:
-            t_ev, f_ev = self.events.pop(0)
-            self.next_send_ns = self.origin_ns + int(round(t_ev * NS))
-            live.control.send_force(self.axes, f_ev, stamp_ns=self.next_send_ns)
-            self.say(f'[demo] force reference {dict(zip(self.axes, f_ev))} N from t = {t_ev:.3f} s (sent at '
-                     f't = {(stamp_ns - self.origin_ns) / NS:.3f} s)', flush=True)
-
-
-class BridgeSchedule:
-    """The experiment's changes of the bridge's run-time parameters ((t, {name: value}), ...): the bridge
-    pauses itself at t (its pause_at, armed for the next change), the parameters are set and it resumes. A
-    change acts from the tick the bridge paused at (its step to the next tick is the first with it), the
-    first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s, 'parameters':
-    {name: value}}]."""
-
-    def __init__(self, events, origin_ns, say):
-        self.events = sorted(events, key=lambda event: event[0])
-        self.origin_ns = origin_ns
-        self.say = say
+        forces = sorted(forces)
+        sent = [0.0] + [0.5 * (a[0] + b[0]) for a, b in zip(forces, forces[1:])]
+        changes = ([(s, self.FORCE, t, f) for s, (t, f) in zip(sent, forces)]
+                   + [(t, self.BRIDGE, t, values) for t, values in events])
+        self.events = sorted(changes, key=lambda change: change[:2])
         self.applied = []
+
+    def _due_ns(self):
+        """The simulation time, ns, of the next change."""
+        return self.origin_ns + int(round(self.events[0][0] * NS))
 
     def _pause_at(self):
         """{'pause_at': the next change's simulation time, s (-1: none left)}."""
-        return {'pause_at': (self.origin_ns / NS + self.events[0][0]) if self.events else -1.0}
+        return {'pause_at': self._due_ns() / NS if self.events else -1.0}
 
     def arm(self, live):
-        """Set the bridge's pause_at for the first change (before the run resumes)."""
+        """Make the changes due at the origin and set the bridge's pause_at for the next (before the run
+        resumes)."""
         if self.events:
-            live.control.set_bridge_parameters(self._pause_at(), poll=live.alive)
+            self._make_due(live, self.origin_ns)
 
     def send_due(self, live, stamp_ns):
-        """Apply what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
-        while self.events and stamp_ns >= self.origin_ns + int(round(self.events[0][0] * NS)):
-            t_ev, values = self.events.pop(0)
+        """Make what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
+        if self.events and stamp_ns >= self._due_ns():
             live.pause()                     # paused already by pause_at; a no-op then
-            t_applied = (live.paused_at() - self.origin_ns) / NS
-            live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
+            self._make_due(live, live.paused_at())
             live.resume()
-            self.applied.append({'t': t_ev, 't_applied': t_applied, 'parameters': dict(values)})
-            self.say(f'[demo] bridge parameters {values} from t = {t_applied:.3f} s (due at t = {t_ev:.3f} s)',
+
+    def _make_due(self, live, paused_ns):
+        """The changes due at the tick `paused_ns` (ns) the bridge stands at, and pause_at for the next."""
+        values = {}
+        while self.events and paused_ns >= self._due_ns():
+            _, kind, t_ev, change = self.events.pop(0)
+            t_now = (paused_ns - self.origin_ns) / NS
+            if kind == self.FORCE:
+                live.send_force(self.axes, change, self.origin_ns + int(round(t_ev * NS)))
+                self.say(f'[demo] force reference {dict(zip(self.axes, change))} N from t = {t_ev:.3f} s (sent at '
+                         f't = {t_now:.3f} s)', flush=True)
+                continue
+            values.update(change)
+            self.applied.append({'t': t_ev, 't_applied': t_now, 'parameters': dict(change)})
+            self.say(f'[demo] bridge parameters {change} from t = {t_now:.3f} s (due at t = {t_ev:.3f} s)',
                      flush=True)
+        live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
 
 
 class LiveRun:
@@ -431,8 +440,11 @@ class LiveRun:
 
     def start_nodes(self, scenario, bridge_params, controller_params, bridge_profiles=()):
         """Start the bridge (the scenario's file, then `bridge_profiles`, stacked) and pause it once it is up,
-        start the controller, wait until it is connected."""
+        start the controller (in lockstep with wrench_wait 0: each state waits for its own tick's wrench however
+        late a busy machine hands it over), wait until it is connected."""
         control, collector = self.control, self.collector
+        if bridge_params.get('mode') == 'lockstep':    # the bridge waits for the command: no hurry for a wrench
+            controller_params = {'wrench_wait': 0.0, **controller_params}
         self.bridge = self._start('sim_bridge', 'sim_bridge.bridge_node', scenario, bridge_params, BRIDGE_ARGS,
                                   bridge_profiles)
         control.spin_until(lambda: (collector.publishers('/joint_states') > 0
@@ -486,6 +498,20 @@ class LiveRun:
             if control.controller_rejections(mark):
                 raise RuntimeError(f'controller rejected the trajectory: {control.controller_rejections(mark)}')
 
+    def send_force(self, axes, values, stamp_ns):
+        """Send a force reference (f per axis of `axes`, N) stamped `stamp_ns` and wait for the controller to
+        log that it took it (RuntimeError if it rejects it)."""
+        control = self.control
+        control.spin_until(lambda: control.wrench_pub.get_subscription_count() > 0, STARTUP_TIMEOUT, self.alive,
+                           'the controller to subscribe to its wrench reference')
+        mark = len(control.log)
+        control.send_force(axes, values, stamp_ns=stamp_ns)
+        control.spin_until(lambda: control.controller_said('force reference', mark) is not None
+                           or control.controller_rejections(mark), CONFIRM_TIMEOUT, self.alive,
+                           'the controller to take the force reference')
+        if control.controller_rejections(mark):
+            raise RuntimeError(f'controller rejected the force reference: {control.controller_rejections(mark)}')
+
     def pause(self):
         """Pause the bridge (its physics stands still; it re-publishes the state every 0.1 s)."""
         self.control.pause(True, poll=self.alive)
@@ -505,7 +531,7 @@ class LiveRun:
 
     def run_until(self, end_ns, schedules, progress):
         """Spin until the command of the tick at `end_ns` has arrived, sending the force references and the
-        bridge's parameter changes (`schedules`: a ForceSchedule, a BridgeSchedule) as they fall due;
+        bridge's parameter changes (`schedules`: Schedule objects) as they fall due;
         RuntimeError when the simulation stalls for STALL_TIMEOUT s."""
         collector = self.collector
         last_progress_wall, last_stamp = time.monotonic(), -1

@@ -12,8 +12,9 @@ References reach the controller as ROS messages:
   controller samples it only at the ticks, so it sees the goal at rest one period later.
 - `force`: the initial force reference, the controller parameter f_d with force_ramp_time.
 - `force_events`: later force references, geometry_msgs/WrenchStamped on
-  /controller/wrench_reference stamped with their time and sent ahead of it: the controller
-  applies each at exactly that tick.
+  /controller/wrench_reference stamped with their time and sent ahead of it while the bridge
+  stands still (the first before the run starts, a later one at a pause between the one before
+  it and its time): the controller applies each at exactly that tick.
 - `bridge_events`: changes of the bridge's run-time parameters (e.g. disturbance.cartesian_force,
   a push on the tip) at simulation times: the bridge pauses itself at t (its pause_at), the demo
   sets the parameters and resumes it. The change acts from the tick the bridge paused at, the

@@ -64,7 +64,7 @@ class RunData:
         self.effort_limit = None if effort_limit is None else np.asarray(effort_limit, float)
         self.state_wall_ns = None if state_wall_ns is None else np.asarray(state_wall_ns, dtype=np.int64)
         self.cmd_wall_ns = None if cmd_wall_ns is None else np.asarray(cmd_wall_ns, dtype=np.int64)
-        self.events = []    # the bridge's parameter changes: [{'t', 't_applied', 'parameters'}] (demo.BridgeSchedule)
+        self.events = []    # the bridge's parameter changes: [{'t', 't_applied', 'parameters'}] (demo.Schedule)
 
     @property
     def samples(self):

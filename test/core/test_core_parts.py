@@ -134,6 +134,14 @@ def test_an_unpaired_or_late_wrench_stream_is_not_waited_for_again():
     assert p.state(4 * MS, 's4') == ['s4']                 # its wrench never came: not waited for again
 
 
+def test_a_held_state_coming_again_keeps_waiting_for_its_wrench():
+    """A lockstep simulator re-publishes the state it has no answer for: the state still waits for its wrench."""
+    p = WrenchPairing()
+    p.state(0, 's0', publisher=True)
+    assert p.state(0, 's0 again') == [] and p.held == (0, 's0')
+    assert p.wrench(0) == ['s0'] and p.held is None
+
+
 def test_a_new_state_releases_a_held_one_first():
     p = WrenchPairing()
     p.state(0, 's0', publisher=True)
