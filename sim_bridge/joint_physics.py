@@ -4,7 +4,7 @@ import numpy as np
 import pybullet as p
 
 from sim_bridge import physics_check
-from sim_bridge.joint_friction import coulomb_torque
+from sim_bridge.joint_friction import coulomb_sets
 
 
 class JointPhysics:
@@ -28,6 +28,7 @@ class JointPhysics:
         self.exact = friction.exact
         self._armature = np.diag(friction.armature)
         self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
+        self._sets = None       # the Coulomb solver's active sets of the last step (coulomb_sets); None: none
         self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
         for j, b in zip(self._joints, friction.viscous.tolist()):
             p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
@@ -37,7 +38,7 @@ class JointPhysics:
         (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
         (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`."""
         if braked:
-            self._last = self.loss = None
+            self._last = self.loss = self._sets = None
             return forces
         c, body, fr = self._client, self._body, self.friction
         states = p.getJointStates(body, self._movable, physicsClientId=c)
@@ -49,17 +50,19 @@ class JointPhysics:
         if self._dof is not None:
             mass, h, qd = mass[self._block], h[self._dof], qd[self._dof]
         tau = np.array(forces)
-        r = tau - fr.viscous * qd - h
+        damping = fr.viscous * qd
+        r = tau - damping - h
         if cartesian_force is not None:
             r += self._jacobian(q_all, qd_all).T @ cartesian_force
         constraint = 0.0 if self._last is None else self._constraint(qd)
         r += constraint
         inertia = mass + self._armature
-        f, v = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb)
+        f, v, self._sets = coulomb_sets(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb, self._sets)
         self._last = (mass, v, constraint)
         qdd = (v - qd) / self.dt
-        self.loss = fr.viscous * qd - f + fr.armature * qdd
-        return (tau + f - fr.armature * qdd).tolist()
+        rotor = fr.armature * qdd
+        self.loss = damping - f + rotor
+        return (tau + f - rotor).tolist()
 
     def _constraint(self, qd):
         """tau_c (n,) N m or N: the joint torque of the constraints PyBullet solved in the last step (surface

@@ -145,10 +145,25 @@ def gaussian(rng, std):
     return std * rng.standard_normal(std.shape)
 
 
+class Encoder:
+    """The encoders of resolution r (n,) >= 0, rad or m per count: `counts(x)`; `on` (n,) bool where r > 0,
+    `every` when r > 0 for every joint. What does not change from tick to tick is formed once."""
+
+    def __init__(self, resolution):
+        self.on = resolution > 0.0
+        self.every = bool(self.on.all())
+        self._r = np.where(self.on, resolution, 1.0)
+
+    def counts(self, x):
+        """Q_r(x) = r round(x / r) where r > 0, x where r = 0 (x (n,), rad or m): whole counts as positions
+        (round half to even)."""
+        q = self._r * np.rint(x / self._r)
+        return q if self.every else np.where(self.on, q, x)
+
+
 def encoder_counts(x, resolution):
-    """Q_r(x) = r round(x / r) where r > 0, x where r = 0 (x, r (n,), rad or m): whole counts as positions."""
-    r = np.where(resolution > 0.0, resolution, 1.0)
-    return np.where(resolution > 0.0, r * np.round(x / r), x)
+    """Encoder(resolution).counts(x): x (n,) as whole counts of resolution (n,), rad or m."""
+    return Encoder(resolution).counts(x)
 
 
 def count_velocity(q, q_prev, period):
@@ -173,8 +188,7 @@ class Sensors:
         self._loss = loss
         m = sensor_model
         self._noisy = [bool(np.any(std)) for std in (m.position_std, m.velocity_std, m.effort_std, m.wrench_std)]
-        self._encoded = m.encoder_resolution > 0.0
-        self._counts = bool(np.any(self._encoded))
+        self._encoder = Encoder(m.encoder_resolution) if np.any(m.encoder_resolution) else None
         self._wrench = m.wrench_modelled
         self._line = collections.deque(maxlen=m.measurement_ticks + 1)
         self.restart()
@@ -193,10 +207,12 @@ class Sensors:
         q, qd, tau = (np.array(v) for v in self._world.state_values())
         if noisy[0]:
             q = q + gaussian(rng[0], m.position_std)
-        if self._counts:
-            q = encoder_counts(q, m.encoder_resolution)
+        encoder = self._encoder
+        if encoder is not None:
+            q = encoder.counts(q)
             if self._q_prev is not None:
-                qd = np.where(self._encoded, count_velocity(q, self._q_prev, self._period), qd)
+                counted = count_velocity(q, self._q_prev, self._period)
+                qd = counted if encoder.every else np.where(encoder.on, counted, qd)
             self._q_prev = q
         if noisy[1]:
             qd = qd + gaussian(rng[1], m.velocity_std)

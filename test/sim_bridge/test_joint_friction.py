@@ -17,7 +17,7 @@ import pytest
 from robot_control import scenarios
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params, physics_check
-from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_torque
+from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_sets, coulomb_torque
 
 DT = 0.001
 IIWA_COULOMB = (1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5)
@@ -120,6 +120,26 @@ def test_coulomb_torque_satisfies_complementarity_on_coupled_systems():
         slip = ~stuck & (fc > 0)
         np.testing.assert_allclose(f[slip], -fc[slip] * np.sign(v[slip]), rtol=1e-9)
         assert np.all(f[fc == 0] == 0)
+
+
+def test_the_solver_started_from_any_sets_finds_the_same_friction_to_the_bit():
+    """coulomb_sets started from random active sets (the World starts each step from the last step's) ends at
+    the f and qd+ of the first guess, bit for bit (the solution is unique, its sets decide it); started from the
+    sets it ended with, it ends with those sets and the same f."""
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        n = int(rng.integers(1, 8))
+        a = rng.normal(size=(n, n))
+        A = a @ a.T + 0.05 * np.eye(n)
+        b = A @ (rng.normal(size=n) * 0.01) / DT + rng.normal(size=n)
+        fc = rng.uniform(0.0, 2.0, n) * (rng.uniform(size=n) > 0.2)
+        f, v = coulomb_torque(A, b, DT, fc)
+        start = ((rng.uniform(size=n) < 0.5) & (fc > 0), rng.choice([-1.0, 1.0], n))
+        f_started, v_started, sets = coulomb_sets(A, b, DT, fc, start)
+        assert np.array_equal(f_started, f) and np.array_equal(v_started, v)
+        if sets is not None:
+            again = coulomb_sets(A, b, DT, fc, sets)
+            assert np.array_equal(again[0], f) and np.array_equal(again[2][0], sets[0])
 
 
 def test_the_fallback_solver_finds_the_same_friction():
