@@ -10,7 +10,7 @@ from sim_bridge.joint_friction import coulomb_sets
 class JointPhysics:
     """The joint physics of one built PyBullet body: `joints` the controlled joints' PyBullet indices,
     `tip` the tip link index or None, dt the step, s. `set(friction)` puts a JointFriction in force; `torque` is the
-    World's per-step call."""
+    World's per-step call; `prepare`, between steps, forms ahead what the next one needs of the state alone."""
 
     def __init__(self, client, body, joints, tip, dt, friction):
         self._client, self._body, self._joints, self._tip, self.dt = client, body, list(joints), tip, dt
@@ -29,6 +29,7 @@ class JointPhysics:
         self._armature = np.diag(friction.armature)
         self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
         self._sets = None       # the Coulomb solver's active sets of the last step (coulomb_sets); None: none
+        self._ahead = None      # _state_terms() formed by prepare() for the next step; None: none
         self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
         for j, b in zip(self._joints, friction.viscous.tolist()):
             p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
@@ -38,9 +39,34 @@ class JointPhysics:
         (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
         (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`."""
         if braked:
-            self._last = self.loss = self._sets = None
+            self._last = self.loss = self._sets = self._ahead = None
             return forces
-        c, body, fr = self._client, self._body, self.friction
+        fr = self.friction
+        terms = self._state_terms() if self._ahead is None else self._ahead
+        self._ahead = None
+        q_all, qd_all, mass, h, qd, damping, constraint, inertia, momentum = terms
+        tau = np.array(forces)
+        r = tau - damping - h
+        if cartesian_force is not None:
+            r += self._jacobian(q_all, qd_all).T @ cartesian_force
+        r += constraint
+        f, v, self._sets = coulomb_sets(inertia, momentum + r, self.dt, fr.coulomb, self._sets)
+        self._last = (mass, v, constraint)
+        qdd = (v - qd) / self.dt
+        rotor = fr.armature * qdd
+        self.loss = damping - f + rotor
+        return (tau + f - rotor).tolist()
+
+    def prepare(self):
+        """Form now the next step's _state_terms() (the state does not change until that step): what the step
+        after the next command then need not do. A step, set() or the brakes discard them."""
+        self._ahead = self._state_terms()
+
+    def _state_terms(self):
+        """What a step needs of the state alone: (q, qd of every movable joint (lists), M (n, n), h = C qd + g (n,),
+        qd (n,), the viscous torque b qd (n,), the constraint torque assumed tau_c (n,) or 0, A = M + diag(I_a),
+        A qd / dt (n,)) of the controlled joints."""
+        c, body = self._client, self._body
         states = p.getJointStates(body, self._movable, physicsClientId=c)
         q_all = [s[0] for s in states]
         qd_all = [s[1] for s in states]
@@ -49,20 +75,9 @@ class JointPhysics:
         qd = np.array(qd_all)
         if self._dof is not None:
             mass, h, qd = mass[self._block], h[self._dof], qd[self._dof]
-        tau = np.array(forces)
-        damping = fr.viscous * qd
-        r = tau - damping - h
-        if cartesian_force is not None:
-            r += self._jacobian(q_all, qd_all).T @ cartesian_force
         constraint = 0.0 if self._last is None else self._constraint(qd)
-        r += constraint
         inertia = mass + self._armature
-        f, v, self._sets = coulomb_sets(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb, self._sets)
-        self._last = (mass, v, constraint)
-        qdd = (v - qd) / self.dt
-        rotor = fr.armature * qdd
-        self.loss = damping - f + rotor
-        return (tau + f - rotor).tolist()
+        return q_all, qd_all, mass, h, qd, self.friction.viscous * qd, constraint, inertia, inertia @ qd / self.dt
 
     def _constraint(self, qd):
         """tau_c (n,) N m or N: the joint torque of the constraints PyBullet solved in the last step (surface

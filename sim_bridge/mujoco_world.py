@@ -200,6 +200,9 @@ class MujocoWorld:
             self._brake, self._brake_applied = (self.state()[0] if on else None), np.zeros(self.n)
 
     # -- stepping ------------------------------------------------------------------------------
+    def prepare(self):
+        """Nothing to form ahead of a step (World.prepare's counterpart: MuJoCo's joint physics is its own)."""
+
     def step(self, k=1):
         """Advance k physics steps of dt with the held torque."""
         if type(k) is not int and (isinstance(k, bool) or not isinstance(k, np.integer)) or k < 1:

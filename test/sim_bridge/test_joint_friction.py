@@ -276,6 +276,33 @@ def test_friction_survives_reset_and_changes_at_run_time(make_world):
     assert world.state()[0][0] > 0.0
 
 
+def test_a_step_prepared_ahead_is_the_same_step_to_the_bit(make_world):
+    """World.prepare between steps (the bridge's call once a state is published) changes nothing: the iiwa with
+    Coulomb friction, viscous friction and armature, sticking and slipping, pushed at the tip, braked and
+    released, its friction changed after a prepare, follows the same trajectory bit for bit as without."""
+    friction = {'coulomb': [1.8, 1.8, 1.0, 1.0, 0.63, 0.23, 0.23], 'viscous': [0.17, 0.17, 0.09, 0.09, 0.06, 0.02, 0.02],
+                'armature': [0.1] * 7}
+    worlds = [make_world('iiwa', friction=friction) for _ in range(2)]
+    amplitude = np.array([3.0, 6.0, 2.0, 4.0, 1.0, 0.5, 0.4])
+    runs = [[], []]
+    for k in range(1200):
+        for world, run in zip(worlds, runs):
+            if k == 300:
+                world.set_disturbance(cartesian_force=[0.0, 5.0, -20.0])
+            if k == 500:
+                world.brake(True)
+            if k == 550:
+                world.brake(False)
+            if k == 700:
+                world.set_friction({**friction, 'coulomb': [0.5] * 7})
+            world.set_torque(g_now(world) + amplitude * np.sin(0.01 * k * np.arange(1, 8)) * (1 + k // 200 % 2))
+            world.step()
+            if world is worlds[1]:
+                world.prepare()
+            run.append(np.concatenate([*world.state()[:2], world.joint_friction_torque()]))
+    assert np.array_equal(np.array(runs[0]), np.array(runs[1]))
+
+
 @pytest.mark.parametrize('friction,name', [({'coulomb': [-1.0]}, 'friction.coulomb'),
                                            ({'viscous': [1.0, 2.0]}, 'friction.viscous'),
                                            ({'armature': [np.nan]}, 'armature'),
