@@ -28,7 +28,7 @@ from robot_control import validation
 from robot_control.validation import ArgumentError
 from sim_bridge import mujoco_model, surfaces
 from sim_bridge.disturbance import Disturbance
-from sim_bridge.joint_friction import JointFriction, step_loss
+from sim_bridge.joint_friction import JointFriction, inertia, step_loss
 from sim_bridge.mujoco_surface import MujocoSurface
 from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, resolve, scenario_of, whole_ns
 
@@ -121,6 +121,7 @@ class MujocoWorld:
         self._tau = np.zeros(self.n)
         self._brake, self._brake_applied = None, np.zeros(self.n)
         self._loss = None
+        self._sets = None       # the Coulomb solver's active sets of the last step (a start; the solution is unique)
         self._surface = None if self._spec.surface is None else self._make_surface()
 
     def _make_surface(self):
@@ -198,7 +199,7 @@ class MujocoWorld:
     def set_friction(self, friction):
         """Replace the joints' friction and armature (World's `friction` argument), from the next step."""
         self.friction = JointFriction.of(self.n, friction)
-        self._friction_active, self._loss = self.friction.active, None
+        self._friction_active, self._loss, self._sets = self.friction.active, None, None
 
     def joint_friction_torque(self):
         """tau_loss = b qd - f + I_a qdd (n,), N m or N, of the last step (sim_bridge.joint_friction): zeros
@@ -216,6 +217,9 @@ class MujocoWorld:
             self._brake, self._brake_applied = (self.state()[0] if on else None), np.zeros(self.n)
 
     # -- stepping ------------------------------------------------------------------------------
+    def prepare(self):
+        """Nothing to form ahead of a step (World.prepare's counterpart: MuJoCo's joint physics is its own)."""
+
     def step(self, k=1):
         """Advance k physics steps of dt with the held torque."""
         if type(k) is not int and (isinstance(k, bool) or not isinstance(k, np.integer)) or k < 1:
@@ -264,7 +268,7 @@ class MujocoWorld:
             return self._tau - self._loss
         mass = mujoco_model.mass_matrix(self.model, d)[np.ix_(self._dadr, self._dadr)]
         r = self._tau + d.qfrc_applied[self._v_at] - fr.viscous * qd - d.qfrc_bias[self._v_at]
-        f, qdd, self._loss = step_loss(fr, mass, qd, r, self.dt)
+        f, qdd, self._loss, self._sets = step_loss(fr, inertia(fr, mass), qd, r, self.dt, self._sets)
         return self._tau + f - fr.armature * qdd - fr.viscous * qd
 
     def _brake_torque(self):

@@ -320,6 +320,13 @@ class World:
             p.stepSimulation(physicsClientId=self._client)
             self.t_ns += self.dt_ns
 
+    def prepare(self):
+        """Form ahead, between steps, what the next step's joint friction and armature need of the current state
+        alone (JointPhysics.prepare): the bridge calls it once a state is published, so that the step after the
+        next command does less. Same results; nothing to do without Coulomb friction and armature, or braked."""
+        if self._joints.exact and self._brake is None:
+            self._joints.prepare()
+
     def _apply_loads(self):
         """Joint torque (actuator unless braked, disturbance, mass-spring, friction and armature) and the
         Cartesian force."""

@@ -17,8 +17,8 @@ import pytest
 from robot_control import scenarios
 from robot_control.models import for_scenario
 from robot_control.validation import ArgumentError
-from sim_bridge import bridge_params
-from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_torque
+from sim_bridge import bridge_params, physics_check
+from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_sets, coulomb_torque
 
 DT = 0.001
 IIWA_COULOMB = (1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5)
@@ -112,6 +112,26 @@ def test_coulomb_torque_satisfies_complementarity_on_coupled_systems():
         slip = ~stuck & (fc > 0)
         np.testing.assert_allclose(f[slip], -fc[slip] * np.sign(v[slip]), rtol=1e-9)
         assert np.all(f[fc == 0] == 0)
+
+
+def test_the_solver_started_from_any_sets_finds_the_same_friction_to_the_bit():
+    """coulomb_sets started from random active sets (the World starts each step from the last step's) ends at
+    the f and qd+ of the first guess, bit for bit (the solution is unique, its sets decide it); started from the
+    sets it ended with, it ends with those sets and the same f."""
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        n = int(rng.integers(1, 8))
+        a = rng.normal(size=(n, n))
+        A = a @ a.T + 0.05 * np.eye(n)
+        b = A @ (rng.normal(size=n) * 0.01) / DT + rng.normal(size=n)
+        fc = rng.uniform(0.0, 2.0, n) * (rng.uniform(size=n) > 0.2)
+        f, v = coulomb_torque(A, b, DT, fc)
+        start = ((rng.uniform(size=n) < 0.5) & (fc > 0), rng.choice([-1.0, 1.0], n))
+        f_started, v_started, sets = coulomb_sets(A, b, DT, fc, start)
+        assert np.array_equal(f_started, f) and np.array_equal(v_started, v)
+        if sets is not None:
+            again = coulomb_sets(A, b, DT, fc, sets)
+            assert np.array_equal(again[0], f) and np.array_equal(again[2][0], sets[0])
 
 
 def test_the_fallback_solver_finds_the_same_friction():
@@ -250,6 +270,33 @@ def test_friction_survives_reset_and_changes_at_run_time(world_on):
     assert world.friction.coulomb.tolist() == [1.0] and world.friction.armature.tolist() == [0.0]
     world.step(100)
     assert world.state()[0][0] > 0.0
+
+
+def test_a_step_prepared_ahead_is_the_same_step_to_the_bit(world_on):
+    """World.prepare between steps (the bridge's call once a state is published) changes nothing: the iiwa with
+    Coulomb friction, viscous friction and armature, sticking and slipping, pushed at the tip, braked and
+    released, its friction changed after a prepare, follows the same trajectory bit for bit as without."""
+    friction = {'coulomb': [1.8, 1.8, 1.0, 1.0, 0.63, 0.23, 0.23], 'viscous': [0.17, 0.17, 0.09, 0.09, 0.06, 0.02, 0.02],
+                'armature': [0.1] * 7}
+    worlds = [world_on('iiwa', friction=friction) for _ in range(2)]
+    amplitude = np.array([3.0, 6.0, 2.0, 4.0, 1.0, 0.5, 0.4])
+    runs = [[], []]
+    for k in range(1200):
+        for world, run in zip(worlds, runs):
+            if k == 300:
+                world.set_disturbance(cartesian_force=[0.0, 5.0, -20.0])
+            if k == 500:
+                world.brake(True)
+            if k == 550:
+                world.brake(False)
+            if k == 700:
+                world.set_friction({**friction, 'coulomb': [0.5] * 7})
+            world.set_torque(g_of(world) + amplitude * np.sin(0.01 * k * np.arange(1, 8)) * (1 + k // 200 % 2))
+            world.step()
+            if world is worlds[1]:
+                world.prepare()
+            run.append(np.concatenate([*world.state()[:2], world.joint_friction_torque()]))
+    assert np.array_equal(np.array(runs[0]), np.array(runs[1]))
 
 
 @pytest.mark.parametrize('friction,name', [({'coulomb': [-1.0]}, 'friction.coulomb'),

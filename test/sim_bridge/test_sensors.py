@@ -275,6 +275,33 @@ def test_one_seed_gives_bit_identical_published_streams_and_another_seed_others(
     assert noisy_run(loop, 7, reset=True).tobytes() == first.tobytes()       # reset restarts every stream
 
 
+def test_noise_drawn_ahead_between_ticks_is_the_same_noise():
+    """Sensors.prepare (the bridge's call once a state is published) draws the next measurement's noise ahead:
+    prepared on some ticks, twice on some, not on others, and restarted after a prepare, the published streams are
+    the same bit for bit as without."""
+    model = sensor_model(**{k: v for k, v in NOISY.items() if not k.startswith('delay')})
+    runs = []
+    for ahead in (False, True):
+        world = make_world('pybullet', 'polar_two_link')
+        try:
+            sensors = Sensors(world, model, MS)
+            world.hold_torque(POLAR.g(Q0) + 0.5)
+            rows = []
+            for k in range(300):
+                if ahead and k % 3:
+                    for _ in range(k % 3):
+                        sensors.prepare()
+                if k == 150:
+                    sensors.restart()
+                world.step()
+                sensors.measure()
+                rows.append(np.concatenate([*sensors.state_values(), *sensors.contact_wrench()]))
+            runs.append(np.array(rows))
+        finally:
+            world.close()
+    assert runs[0].tobytes() == runs[1].tobytes()
+
+
 def test_a_realtime_measurement_delay_must_stay_below_command_timeout():
     with pytest.raises(ValueError, match='^delay.measurement_ticks: realtime'):
         bridge_params.validate(bridge_params.defaults('polar_two_link', **{'delay.measurement_ticks': 50}))
