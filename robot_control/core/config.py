@@ -27,8 +27,6 @@ class ControllerConfig:
     law: a name of the registry robot_control.laws.LAWS.
     gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for computed
       torque; torque gains N m/rad ... for independent_joint), (m,) or one per motion axis for hybrid.
-    force_gains: ServoGains (k,) one per force axis of the law's force setup (force and hybrid laws),
-      1/s^2, 1/s, 1/s^3.
     integral: integral action on (ki used) or off (ki ignored, no integral state).
     integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
     integral_rest_velocity: v_r, > 0, in units of Ed (rad/s, m/s or N/s): entry i integrates only while
@@ -39,7 +37,7 @@ class ControllerConfig:
     control_period: the period of the states the controller answers, s (> 0): laws whose designed gains
       depend on the rate keep them stable at it (robot_control.laws.impedance).
     law_params: the parameters only the law reads: a mapping of its parameter names (Law.all_param_rows:
-      those of its parts, e.g. force_axes, k_e, x_e, ... of the force setup or posture_kp, posture_kv, and
+      those of its parts, e.g. force_axes, k_e, x_e, force_kp, ... of the force setup or posture_kp, posture_kv, and
       its own) to values (missing ones at their defaults; None: all), or the law's Params; held as that
       law's Params (a frozen dataclass, e.g. robot_control.laws.impedance.ImpedanceParams, its parts fitted
       to the model: the force axes in task-axis order), None for a law without parameters. The law's force
@@ -58,7 +56,6 @@ class ControllerConfig:
     model: RobotModel
     law: str = 'computed_torque'
     gains: ServoGains = None
-    force_gains: ServoGains = None
     integral: bool = False
     integral_limit: float = math.inf
     integral_rest_velocity: float = math.inf
@@ -137,7 +134,7 @@ class ControllerConfig:
         """What the law computes with: a change re-initialises the integral (bumpless transfer)."""
         def arrays(g):
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
-        return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
+        return (self.law, self.integral, arrays(self.gains), id(self.model),
                 self.integral_limit, self.integral_rest_velocity, self.control_period, self.law_params,
                 self.friction_compensation)
 
