@@ -34,8 +34,6 @@ class ControllerConfig:
     effort_limit: (n,) N m or N, > 0 (inf allowed); None = model.effort_limit.
     joints: joint names in model order; None = model.joint_names.
     move_time: duration of a set_goal() move, s (> 0).
-    control_period: the period of the states the controller answers, s (> 0): laws whose designed gains
-      depend on the rate keep them stable at it (robot_control.laws.impedance).
     law_params: the parameters only the law reads: a mapping of its parameter names (Law.all_param_rows:
       those of its parts, e.g. force_axes, k_e, x_e, force_kp, ... of the force setup or posture_kp, posture_kv, and
       its own) to values (missing ones at their defaults; None: all), or the law's Params; held as that
@@ -62,7 +60,6 @@ class ControllerConfig:
     effort_limit: np.ndarray = None
     joints: tuple = None
     move_time: float = 2.0
-    control_period: float = 0.001
     trajectory_tolerance: np.ndarray = 0.0
     goal_tolerance: np.ndarray = 0.0
     goal_time: float = 0.0
@@ -89,7 +86,6 @@ class ControllerConfig:
         limit = model.effort_limit if self.effort_limit is None else self.effort_limit
         set_('effort_limit', validation.read_only(validation.limit_vector('effort_limits', limit, model.n)))
         set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
-        set_('control_period', validation.scalar('control_period', self.control_period, positive=True))
         self._set_tolerances(set_)
         set_('law_params', law.make_params(self.law_params, model))
         set_('friction_compensation', FrictionCompensation.of(self.friction_compensation, model.n))
@@ -135,7 +131,7 @@ class ControllerConfig:
         def arrays(g):
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
         return (self.law, self.integral, arrays(self.gains), id(self.model),
-                self.integral_limit, self.integral_rest_velocity, self.control_period, self.law_params,
+                self.integral_limit, self.integral_rest_velocity, self.law_params,
                 self.friction_compensation)
 
     def replace(self, **changes):

@@ -116,7 +116,6 @@ class ConfigBuilder:
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
-            control_period=values['control_period'],
             law_params=law_params,
             friction_compensation=friction_compensation.values_of(values),
             velocity_cutoff_hz=values['velocity_filter.cutoff_hz'])

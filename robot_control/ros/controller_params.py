@@ -178,9 +178,6 @@ def servo_rows():
             f'without velocities: estimated with f_c = {velocity.DEFAULT_CUTOFF_HZ:g} Hz)', [gt_eq(0)]),
         Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
             '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
-        Row('control_period', 'double', 0.001, 'period of the joint_states the controller answers (the '
-            "bridge's control_period), s: the designed gains of the impedance law are kept stable at this rate",
-            [gt(0)]),
     ]
 
 

@@ -500,11 +500,11 @@ def test_the_configuration_holds_only_what_every_law_shares():
     ControllerConfig: no field of the configuration is a parameter of a law."""
     fields = {f.name for f in dataclasses.fields(ControllerConfig)}
     assert fields == {'model', 'law', 'gains', 'integral', 'integral_limit', 'integral_rest_velocity',
-                      'effort_limit', 'joints', 'move_time', 'control_period', 'trajectory_tolerance', 'goal_tolerance',
+                      'effort_limit', 'joints', 'move_time', 'trajectory_tolerance', 'goal_tolerance',
                       'goal_time', 'stopped_velocity_tolerance', 'law_params', 'friction_compensation',
                       'velocity_cutoff_hz'}
     law_rows = {row.name for law in LAWS.values() for row in law.all_param_rows()}
-    assert {'force_axes', 'k_e', 'x_e', 'posture_kp', 'contact_max_travel'} <= law_rows
+    assert {'force_axes', 'k_e', 'x_e', 'force_kp', 'posture_kp', 'contact_max_travel', 'control_period'} <= law_rows
     assert not fields & law_rows
     assert [name for name, law in LAWS.items() if law.uses_force] == ['force', 'hybrid']
 
@@ -526,6 +526,7 @@ def test_the_configuration_holds_only_what_every_law_shares():
     ({'move_time': 0.0}, '^move_time:'),
     ({'law': 'hybrid', 'law_params': {'posture_kp': -1.0}}, '^posture_kp:'),
     ({'law': 'impedance', 'gains': None, 'law_params': {'posture_kv': -1.0}}, '^posture_kv:'),
+    ({'law': 'impedance', 'gains': None, 'law_params': {'control_period': 0.0}}, '^control_period:'),
     ({'law': 'hybrid', 'law_params': {'force_lead_time': -0.001}}, '^force_lead_time:'),
     ({'law_params': {'force_axes': ('x',)}}, r"^law_params: \['force_axes'\] are not parameters of law computed"),
 ])

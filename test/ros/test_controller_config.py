@@ -213,3 +213,11 @@ def test_translational_stiffness_alone_in_a_position_task_space_is_taken():
     cfg = ConfigBuilder()(_values(**SO100, law='impedance', cartesian_stiffness=[500.0, 600.0, 700.0, 0.0, 0.0, 0.0]))
     np.testing.assert_array_equal(cfg.control_law.K, [500.0, 600.0, 700.0])
     assert cfg.control_law.w_max is None                   # explicit: used as given
+
+
+def test_the_control_period_is_the_impedance_law_s_and_caps_its_designed_stiffness():
+    """control_period (the node parameter) reaches the impedance law's parameters: w_max = 0.1 pi / (T max(1, zeta))."""
+    slow = ConfigBuilder()(_values(**SO100, law='impedance', control_period=0.002))
+    assert slow.law_params.control_period == 0.002 and not hasattr(slow, 'control_period')
+    assert slow.control_law.w_max == pytest.approx(0.1 * np.pi / 0.002)
+    assert ConfigBuilder()(_values(**SO100, law='impedance')).control_law.w_max == pytest.approx(0.1 * np.pi / 0.001)
