@@ -246,9 +246,10 @@ def hybrid_cases(iiwa, states):
     from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
     from robot_control.laws import hybrid
+    from robot_control.laws.force_task import gain_params
+    force_gains = ServoGains.uniform(1, KP, KV)
     config = ControllerConfig(iiwa, law='hybrid', gains=ServoGains.uniform(3, KP, KV),
-                              force_gains=ServoGains.uniform(1, KP, KV),
-                              law_params={'force_axes': ('z',), 'k_e': (K_E,), 'x_e': (X_E,)})
+                              law_params={'force_axes': ('z',), 'k_e': (K_E,), 'x_e': (X_E,), **gain_params(force_gains)})
     axes = config.control_law.force_task.mask
     posture = config.law_params.posture.gains(iiwa.n)
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d, F_D, 0.0, 0.0), None)
@@ -258,7 +259,7 @@ def hybrid_cases(iiwa, states):
         f, fdot = np.zeros(3), np.zeros(3)
         f[axes], fdot[axes] = state.f, state.fdot
         checked.append((iiwa, q, qd, *iiwa._task_motion(q_d, qd_d, qdd_d), np.where(axes, F_D, 0.0), np.zeros(3),
-                        np.zeros(3), f, fdot, axes, K_E, config.gains, config.force_gains, q_d, posture))
+                        np.zeros(3), f, fdot, axes, K_E, config.gains, force_gains, q_d, posture))
     return {'hybrid_7dof': (tick, inputs), 'hybrid_7dof_checked': (hybrid, checked)}
 
 

@@ -27,8 +27,6 @@ class ControllerConfig:
     law: a name of the registry robot_control.laws.LAWS.
     gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for computed
       torque; torque gains N m/rad ... for independent_joint), (m,) or one per motion axis for hybrid.
-    force_gains: ServoGains (k,) one per force axis of the law's force setup (force and hybrid laws),
-      1/s^2, 1/s, 1/s^3.
     integral: integral action on (ki used) or off (ki ignored, no integral state).
     integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
     integral_rest_velocity: v_r, > 0, in units of Ed (rad/s, m/s or N/s): entry i integrates only while
@@ -36,10 +34,8 @@ class ControllerConfig:
     effort_limit: (n,) N m or N, > 0 (inf allowed); None = model.effort_limit.
     joints: joint names in model order; None = model.joint_names.
     move_time: duration of a set_goal() move, s (> 0).
-    control_period: the period of the states the controller answers, s (> 0): laws whose designed gains
-      depend on the rate keep them stable at it (robot_control.laws.impedance).
     law_params: the parameters only the law reads: a mapping of its parameter names (Law.all_param_rows:
-      those of its parts, e.g. force_axes, k_e, x_e, ... of the force setup or posture_kp, posture_kv, and
+      those of its parts, e.g. force_axes, k_e, x_e, force_kp, ... of the force setup or posture_kp, posture_kv, and
       its own) to values (missing ones at their defaults; None: all), or the law's Params; held as that
       law's Params (a frozen dataclass, e.g. robot_control.laws.impedance.ImpedanceParams, its parts fitted
       to the model: the force axes in task-axis order), None for a law without parameters. The law's force
@@ -58,14 +54,12 @@ class ControllerConfig:
     model: RobotModel
     law: str = 'computed_torque'
     gains: ServoGains = None
-    force_gains: ServoGains = None
     integral: bool = False
     integral_limit: float = math.inf
     integral_rest_velocity: float = math.inf
     effort_limit: np.ndarray = None
     joints: tuple = None
     move_time: float = 2.0
-    control_period: float = 0.001
     trajectory_tolerance: np.ndarray = 0.0
     goal_tolerance: np.ndarray = 0.0
     goal_time: float = 0.0
@@ -92,7 +86,6 @@ class ControllerConfig:
         limit = model.effort_limit if self.effort_limit is None else self.effort_limit
         set_('effort_limit', validation.read_only(validation.limit_vector('effort_limits', limit, model.n)))
         set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
-        set_('control_period', validation.scalar('control_period', self.control_period, positive=True))
         self._set_tolerances(set_)
         set_('law_params', law.make_params(self.law_params, model))
         set_('friction_compensation', FrictionCompensation.of(self.friction_compensation, model.n))
@@ -137,8 +130,8 @@ class ControllerConfig:
         """What the law computes with: a change re-initialises the integral (bumpless transfer)."""
         def arrays(g):
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
-        return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
-                self.integral_limit, self.integral_rest_velocity, self.control_period, self.law_params,
+        return (self.law, self.integral, arrays(self.gains), id(self.model),
+                self.integral_limit, self.integral_rest_velocity, self.law_params,
                 self.friction_compensation)
 
     def replace(self, **changes):

@@ -118,10 +118,11 @@ def _law(name, core, counters):
     guard = core.contact_guard
     if guard is not None and guard.active:
         level, message = 'ERROR', f'{message}; {guard.reason}'
+    task = cfg.control_law.force_task
     gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', cfg.gains),
-                                                                                ('force_gains', cfg.force_gains))
+                                                                                ('force_gains', task.gains))
              if servo is not None for g in ('kp', 'kv', 'ki')]
-    axes = ','.join(cfg.control_law.force_task.force_axes)
+    axes = ','.join(task.force_axes)
     return (f'{name}: control law', level, message,
             gains + [('law', cfg.law), ('force_axes', axes), ('integral', cfg.integral),
              ('velocity', counters.velocity_source),

@@ -65,7 +65,8 @@ def spring_force(x, xd, x_e, k_e, sign=0.0):
 
 @dataclasses.dataclass(frozen=True)
 class ForceParams:
-    """The force law's parameters: its force setup (robot_control.laws.force_task.ForceTask)."""
+    """The force law's parameters: its force setup with the force servo's gains
+    (robot_control.laws.force_task.ForceTask)."""
 
     force_task: ForceTask = ForceTask()
 
@@ -90,8 +91,8 @@ class Force(Law):
         if len(task.force_axes) != 1:
             raise ArgumentError('force_axes', f'law force needs its task axis {list(model.task_axes)}, '
                                               f'got {list(task.force_axes)}')
-        self.check_servo_gains('force_kp', config.force_gains, 1)
         self.k_e = float(task.k_e[0])
+        self.gains = task.gains
 
     @property
     def integral_dim(self):
@@ -104,7 +105,7 @@ class Force(Law):
     def integral_gains(self):
         if not self.config.integral:
             return np.zeros(1), np.zeros(1)
-        return np.array(self.config.force_gains.ki), np.array(self.config.force_gains.kv)
+        return np.array(self.gains.ki), np.array(self.gains.kv)
 
     def errors(self, state, ref):
         np.subtract(ref.f_d, state.f, out=self.E)
@@ -113,8 +114,8 @@ class Force(Law):
 
     def torque(self, state, ref, err, int_E):
         m = self.model._M(state.q)[0, 0]
-        return _force_1dof(m, state.f, ref.fdd_d, err.E, err.Ed, self.k_e, self.config.force_gains, int_E)
+        return _force_1dof(m, state.f, ref.fdd_d, err.E, err.Ed, self.k_e, self.gains, int_E)
 
     def integral_map(self, state, ref, err):
         """B = m ki / k_e, (1, 1)."""
-        return self.model._M(state.q) * (self.config.force_gains.ki / self.k_e)
+        return self.model._M(state.q) * (self.gains.ki / self.k_e)

@@ -139,8 +139,9 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
 
 @dataclasses.dataclass(frozen=True)
 class HybridParams:
-    """The hybrid law's parameters: its force setup (robot_control.laws.force_task.ForceTask) and its null-space
-    posture (robot_control.laws.operational_space.Posture)."""
+    """The hybrid law's parameters: its force setup with the force servo's gains
+    (robot_control.laws.force_task.ForceTask) and its null-space posture
+    (robot_control.laws.operational_space.Posture)."""
 
     force_task: ForceTask = ForceTask()
     posture: Posture = Posture()
@@ -170,9 +171,7 @@ class Hybrid(Law):
         if motion and getattr(config.gains, 'n', None) not in (m, motion):
             raise ArgumentError('kp', f'expected {m} gains (one per task axis) or {motion} (one per motion axis) '
                                       f'for law hybrid, got {getattr(config.gains, "n", config.gains)}')
-        if k:
-            self.check_servo_gains('force_kp', config.force_gains, k)
-        self.gains = axis_gains(config.gains if motion else None, config.force_gains if k else None, self.axes)
+        self.gains = axis_gains(config.gains if motion else None, task.gains, self.axes)
         K_e = np.ones(m)
         K_e[self.axes] = task.k_e
         self.K_e = K_e

@@ -145,9 +145,9 @@ def payload_id_rows():
 
 
 def servo_rows():
-    """The law and its servo gains: designed from zeta, omega_res, omega_n, or explicit; limits."""
+    """The law and its motion servo's gains: designed from zeta, omega_res, omega_n (the force servo's too), or
+    explicit; limits."""
     gains = [custom('empty, or one per joint (hybrid: per task or motion axis)'), gt_eq(0)]
-    per_axis = size('force_axes', 'force axis', empty_ok=True)
     return [
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
@@ -166,12 +166,6 @@ def servo_rows():
             [custom('empty, or as many as kp needs'), gt_eq(0)]),
         Row('ki', 'double_array', (), 'explicit Ki diagonal (empty = designed), used when integral: '
             '1/s^3 or N m/(rad s), N/(m s)', [custom('empty, or as many as kp needs'), gt_eq(0)]),
-        Row('force_kp', 'double_array', (), 'explicit force servo kp per force axis (empty = designed), 1/s^2',
-            [per_axis, gt_eq(0)]),
-        Row('force_kv', 'double_array', (), 'explicit force servo kv per force axis (empty = designed), 1/s',
-            [per_axis, gt_eq(0)]),
-        Row('force_ki', 'double_array', (), 'explicit force servo ki per force axis (empty = designed), 1/s^3',
-            [per_axis, gt_eq(0)]),
         Row('integral_limit', 'double', math.inf,
             'clamp of |integral of the error| per entry: rad s, m s (joints/motion) or N s (force); .inf = no clamp',
             [gt(0)], inf=True),
@@ -184,9 +178,6 @@ def servo_rows():
             f'without velocities: estimated with f_c = {velocity.DEFAULT_CUTOFF_HZ:g} Hz)', [gt_eq(0)]),
         Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
             '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
-        Row('control_period', 'double', 0.001, 'period of the joint_states the controller answers (the '
-            "bridge's control_period), s: the designed gains of the impedance law are kept stable at this rate",
-            [gt(0)]),
     ]
 
 
@@ -268,7 +259,7 @@ def gains_rows():
 def gains_in_force(config):
     """{gains.*: tuple} of a ControllerConfig, for the reported rows."""
     out = {}
-    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.force_gains)):
+    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.control_law.force_task.gains)):
         for gain, _ in GAINS:
             out[f'{prefix}{gain}'] = () if gains is None else tuple(getattr(gains, gain).tolist())
     return out

@@ -7,6 +7,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.core.controller import Command, Controller, Rejection
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
+from robot_control.laws.force_task import gain_params
 from robot_control.models import make_model
 
 MS = 1_000_000
@@ -19,12 +20,13 @@ def polar():
 
 
 #: x against a spring at 0.3 m, the force from the sensor
-FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'sensor'}
+FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'sensor',
+         **gain_params(design(1.0, 12.0).gains(1))}
 
 
 def hybrid_sensor():
     d = design(1.0, 12.0)
-    return ControllerConfig(XY, law='hybrid', gains=d.gains(2), force_gains=d.gains(1), law_params=FORCE,
+    return ControllerConfig(XY, law='hybrid', gains=d.gains(2), law_params=FORCE,
                             effort_limit=[200.0, 200.0])
 
 

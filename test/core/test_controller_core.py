@@ -11,6 +11,7 @@ from robot_control.core.tick import ControllerConfig, ControllerCore, measure_ta
 from robot_control.gains import ServoGains, design
 from robot_control.laws import (LAWS, Reference, State, computed_torque, force_1dof, hybrid, independent_joint,
                                 saturate, spring_force)
+from robot_control.laws.force_task import gain_params
 from robot_control.models import make_model
 from robot_control.trajectory import from_points, hold, point_to_point
 
@@ -27,24 +28,26 @@ def polar_config(integral=False, law='computed_torque', gains=None, **kw):
 
 
 #: the force setup of the cartesian_xy cases: x against a spring at 0.3 m, the force from the model
-XY_FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'model'}
+XY_FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'model',
+            **gain_params(design(1.0, 12.0).gains(1))}
 
 
 def xy_config(integral=False, feedback='model', **kw):
     d = design(1.0, 12.0, integral=integral)
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
     kw.setdefault('effort_limit', [200.0, 200.0])
-    force = dict(force_axes=('x',), k_e=[1000.0], x_e=[0.3], force_feedback=feedback, **kw.pop('force', {}))
-    return ControllerConfig(model, law='hybrid', gains=d.gains(2), force_gains=d.gains(1), integral=integral,
-                            law_params=force, **kw)
+    force = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': feedback,
+             **gain_params(d.gains(1)), **kw.pop('force', {})}
+    return ControllerConfig(model, law='hybrid', gains=d.gains(2), integral=integral, law_params=force, **kw)
 
 
 def force_config(integral=False, feedback='model', **kw):
     d = design(1.0, 12.0, integral=integral)
     kw.setdefault('effort_limit', [200.0])
-    force = dict(force_axes=('x',), k_e=[1000.0], x_e=[0.1], force_feedback=feedback, **kw.pop('force', {}))
-    return ControllerConfig(make_model('force_1dof', m=1.5), law='force', force_gains=d.gains(1),
-                            integral=integral, law_params=force, **kw)
+    force = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.1], 'force_feedback': feedback,
+             **gain_params(d.gains(1)), **kw.pop('force', {})}
+    return ControllerConfig(make_model('force_1dof', m=1.5), law='force', integral=integral, law_params=force,
+                            **kw)
 
 
 def random_state(n, scale=0.2, base=None):
@@ -89,12 +92,12 @@ def _library_tau(core, q, qd, f_meas=None):
         else:
             f, fdot = np.asarray(f_meas)[mask], task.k_e * xd[mask]
         if cfg.law == 'force':
-            tau = force_1dof(model.M(q)[0, 0], f, fdot, pos, vel, acc, task.k_e[0], cfg.force_gains, int_E)
+            tau = force_1dof(model.M(q)[0, 0], f, fdot, pos, vel, acc, task.k_e[0], task.gains, int_E)
         else:
             fm, fdm = np.zeros(model.task_dim), np.zeros(model.task_dim)
             fm[mask], fdm[mask] = f, fdot
             tau = hybrid(model, q, qd, pos, vel, acc, pos, vel, acc, fm, fdm, mask, np.where(mask, 1000.0, 1.0),
-                         cfg.gains, cfg.force_gains, q_posture=core.joint_reference[0],
+                         cfg.gains, task.gains, q_posture=core.joint_reference[0],
                          k_posture=cfg.law_params.posture.gains(model.n), int_E=int_E)
     return saturate(tau, cfg.effort_limit)[0]
 
@@ -438,7 +441,7 @@ def test_switch_to_hybrid_restarts_the_reference_from_the_current_state():
     for k in range(1, 200):
         core.update(k * DT, np.array([0.25, 0.01]), np.zeros(2))
     q, qd = np.array([0.301, 0.05]), np.array([0.0, 0.1])
-    core.configure(core.config.replace(law='hybrid', force_gains=d.gains(1), law_params=XY_FORCE))
+    core.configure(core.config.replace(law='hybrid', law_params=XY_FORCE))
     core.set_force_reference([5.0])
     tau = core.update(0.2, q, qd)
     np.testing.assert_array_equal(core.joint_reference[0], q)        # restarted: hold q
@@ -484,24 +487,24 @@ def test_force_lead_time_uses_the_force_one_period_ahead(feedback):
     core.set_force_reference([3.0])
     tau = core.update(0.0, q, qd, f_meas=[f_meas])
     f = f_meas if feedback == 'sensor' else 1000.0 * (q[0] - 0.1)
-    fdot = 1000.0 * qd[0]
+    fdot, gains = 1000.0 * qd[0], core.config.control_law.force_task.gains
     want = force_1dof(1.5, np.array([f + fdot * T]), np.array([fdot]), np.array([3.0]), np.zeros(1), np.zeros(1),
-                      1000.0, core.config.force_gains)
+                      1000.0, gains)
     np.testing.assert_allclose(tau, want, rtol=0, atol=1e-12)
     assert abs(want[0] - force_1dof(1.5, np.array([f]), np.array([fdot]), np.array([3.0]), np.zeros(1),
-                                    np.zeros(1), 1000.0, core.config.force_gains)[0]) > 0.01   # T matters here
+                                    np.zeros(1), 1000.0, gains)[0]) > 0.01   # T matters here
 
 # -- configuration ---------------------------------------------------------------------------------------
 def test_the_configuration_holds_only_what_every_law_shares():
     """What one law (or a group of laws: the force setup, the posture) reads is in its Params (law_params), not in
     ControllerConfig: no field of the configuration is a parameter of a law."""
     fields = {f.name for f in dataclasses.fields(ControllerConfig)}
-    assert fields == {'model', 'law', 'gains', 'force_gains', 'integral', 'integral_limit', 'integral_rest_velocity',
-                      'effort_limit', 'joints', 'move_time', 'control_period', 'trajectory_tolerance', 'goal_tolerance',
+    assert fields == {'model', 'law', 'gains', 'integral', 'integral_limit', 'integral_rest_velocity',
+                      'effort_limit', 'joints', 'move_time', 'trajectory_tolerance', 'goal_tolerance',
                       'goal_time', 'stopped_velocity_tolerance', 'law_params', 'friction_compensation',
                       'velocity_cutoff_hz'}
     law_rows = {row.name for law in LAWS.values() for row in law.all_param_rows()}
-    assert {'force_axes', 'k_e', 'x_e', 'posture_kp', 'contact_max_travel'} <= law_rows
+    assert {'force_axes', 'k_e', 'x_e', 'force_kp', 'posture_kp', 'contact_max_travel', 'control_period'} <= law_rows
     assert not fields & law_rows
     assert [name for name, law in LAWS.items() if law.uses_force] == ['force', 'hybrid']
 
@@ -523,6 +526,7 @@ def test_the_configuration_holds_only_what_every_law_shares():
     ({'move_time': 0.0}, '^move_time:'),
     ({'law': 'hybrid', 'law_params': {'posture_kp': -1.0}}, '^posture_kp:'),
     ({'law': 'impedance', 'gains': None, 'law_params': {'posture_kv': -1.0}}, '^posture_kv:'),
+    ({'law': 'impedance', 'gains': None, 'law_params': {'control_period': 0.0}}, '^control_period:'),
     ({'law': 'hybrid', 'law_params': {'force_lead_time': -0.001}}, '^force_lead_time:'),
     ({'law_params': {'force_axes': ('x',)}}, r"^law_params: \['force_axes'\] are not parameters of law computed"),
 ])
@@ -684,7 +688,7 @@ def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
     np.testing.assert_allclose(core.reference_at(1.0)[0], [0.5, 0.9])
     np.testing.assert_array_less(q0, core.reference_at(0.5)[0])
     xy = xy_config()
-    core = ControllerCore(xy.replace(law='gravity_compensation', gains=None, force_gains=None, law_params=None))
+    core = ControllerCore(xy.replace(law='gravity_compensation', gains=None, law_params=None))
     core.update(0.0, np.array([0.3, 0.1]), np.zeros(2))
     core.configure(ControllerConfig(xy.model, law='impedance', effort_limit=[200.0, 200.0]))
     core.set_target_pose([0.32, 0.12])
@@ -696,7 +700,7 @@ def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
     core = ControllerCore(ct)
     q = np.array([0.301, 0.05])
     core.update(0.0, q, np.zeros(2))
-    core.configure(ct.replace(law='hybrid', force_gains=d.gains(1), law_params=XY_FORCE))
+    core.configure(ct.replace(law='hybrid', law_params=XY_FORCE))
     core.set_force_reference([5.0])
     core.set_target_pose([0.0, 0.08])
     core.update(0.001, q, np.zeros(2))

@@ -36,6 +36,7 @@ from support import robustness as rh
 from robot_control.core.tick import ControllerConfig, ControllerCore
 from robot_control.gains import ServoGains, design
 from robot_control.laws import Integral, computed_torque, hybrid, saturate
+from robot_control.laws.force_task import gain_params
 from robot_control.models import for_scenario, make_model
 from robot_control.core.contact import ContactGuard
 
@@ -224,10 +225,11 @@ def test_hybrid_and_force_laws_saturate_and_recover():
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
 
     def run_hybrid(limit):
-        cfg = ControllerConfig(model=model, law='hybrid', gains=PID.gains(2), force_gains=PID.gains(1),
-                               integral=True, effort_limit=list(limit), move_time=0.05,
+        cfg = ControllerConfig(model=model, law='hybrid', gains=PID.gains(2), integral=True,
+                               effort_limit=list(limit), move_time=0.05,
                                law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3],
-                                           'force_feedback': 'sensor', 'force_ramp_time': 0.2})
+                                           'force_feedback': 'sensor', 'force_ramp_time': 0.2,
+                                           **gain_params(PID.gains(1))})
         core = ControllerCore(cfg)
         q, qd = np.array([0.305, 0.0]), np.zeros(2)
         f = np.array([5.0, 0.0])
@@ -257,9 +259,10 @@ def test_hybrid_and_force_laws_saturate_and_recover():
     fmodel = make_model('force_1dof', m=1.0)
 
     def run_force(limit, fd=30.0):
-        cfg = ControllerConfig(model=fmodel, law='force', force_gains=PID.gains(1), integral=True,
-                               effort_limit=[limit], law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.1],
-                                                                 'force_feedback': 'sensor', 'force_ramp_time': 0.05})
+        cfg = ControllerConfig(model=fmodel, law='force', integral=True, effort_limit=[limit],
+                               law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.1],
+                                           'force_feedback': 'sensor', 'force_ramp_time': 0.05,
+                                           **gain_params(PID.gains(1))})
         core = ControllerCore(cfg)
         x, xd = np.array([0.102]), np.zeros(1)
         core.set_force_reference([2.0])
