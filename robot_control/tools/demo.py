@@ -667,9 +667,16 @@ def steady_force(summary):
     return summary['force_reference'][axis] - summary['force_steady_state_error'][axis]
 
 
-def _differ(a, b, atol, rtol):
-    """'' when a and b (or either missing) agree within atol or rtol of the larger magnitude, else 'differs'."""
-    if a is None or b is None or abs(a - b) < atol or abs(a - b) < rtol * max(abs(a), abs(b)):
+def relative_difference(a, b):
+    """|a - b| / max(|a|, |b|) of two figures of the engines; 0 when both are 0."""
+    larger = max(abs(a), abs(b))
+    return abs(a - b) / larger if larger else 0.0
+
+
+def differs(a, b, atol, rtol):
+    """'' when a and b (or either missing) agree within atol or rtol of the larger magnitude
+    (relative_difference), else 'differs'."""
+    if a is None or b is None or abs(a - b) < atol or relative_difference(a, b) < rtol:
         return ''
     return 'differs'
 
@@ -685,8 +692,8 @@ def side_by_side(summaries, names):
         runs = [summaries.get((name, e)) for e in ENGINES]
         rms = [None if r is None else tracking_rms(r) for r in runs]
         force = [None if r is None else steady_force(r) for r in runs]
-        cells = [name] + [fmt(v, '.3e') for v in rms] + [_differ(*rms, RMS_ATOL, RMS_RTOL)]
-        cells += [fmt(v, '.3f') for v in force] + [_differ(*force, 0.0, FORCE_RTOL)]
+        cells = [name] + [fmt(v, '.3e') for v in rms] + [differs(*rms, RMS_ATOL, RMS_RTOL)]
+        cells += [fmt(v, '.3f') for v in force] + [differs(*force, 0.0, FORCE_RTOL)]
         lines.append('| ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines)
 
