@@ -25,6 +25,8 @@ The floor of B3: the same figures, counted the same way by the same observer, of
 physics, no law), run once before each run of REALTIME_RUNS and pooled (missed periods and periods
 summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
 Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance.
+Engines: the runs of RUN_ENGINES (B2's and B3's iiwa_mujoco: the iiwa under computed torque) give the bridge another
+physics engine (its `engine` parameter); every other run is on the bridge's default, PyBullet.
 """
 import importlib
 import math
@@ -115,6 +117,11 @@ def node_executor(module):
 #: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)
 REALTIME_RUNS = {'polar': ('polar_two_link', None), 'iiwa': ('iiwa', None),
                  'iiwa_hybrid': ('iiwa', 'iiwa_hybrid_line'), 'iiwa_impedance': ('iiwa', 'impedance_push')}
+#: B3's run of the iiwa under computed torque on MuJoCo
+REALTIME_RUNS['iiwa_mujoco'] = ('iiwa', None)
+#: the runs (B2's and B3's keys) whose bridge runs on another engine than its default: key suffix -> engine
+#: (sim_bridge.engines.ENGINES)
+RUN_ENGINES = {'iiwa_mujoco': 'mujoco'}
 
 
 def experiment_params(name):
@@ -134,10 +141,10 @@ def experiment_params(name):
 BARE = {'pingpong': ('polar_two_link', 'ping', 'pong'), 'floor': ('iiwa', 'tick', 'echo')}
 
 
-def node_commands(kind, mode, experiment=None):
+def node_commands(kind, mode, experiment=None, engine=None):
     """[(name, argv)] of the two processes of a run: a kind of BARE or a scenario name, with the parameters of
-    demo experiment `experiment` (None: the scenario's file alone). The ends of a bare exchange use the
-    executors of the nodes they stand for."""
+    demo experiment `experiment` (None: the scenario's file alone), the bridge on physics engine `engine` (None:
+    its default). The ends of a bare exchange use the executors of the nodes they stand for."""
     if kind in BARE:
         scenario, *roles = BARE[kind]
         joints = list(scenarios.get(scenario).joints)
@@ -148,7 +155,7 @@ def node_commands(kind, mode, experiment=None):
     bridge_extra, controller_extra = experiment_params(experiment)
     bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params, *bridge_extra,
               '-p', f'mode:={mode}', '-p', 'physics_step:=0.001', '-p', f'control_period:={PERIOD_NS / NS}',
-              '-p', 'real_time_factor:=1.0']
+              '-p', 'real_time_factor:=1.0', *(['-p', f'engine:={engine}'] if engine else [])]
     controller = ['-m', 'robot_control.ros.controller_node', '--ros-args', '--params-file', params, *controller_extra]
     return [('sim_bridge', bridge), ('controller', controller)]
 
@@ -246,11 +253,12 @@ class Session:
         self.close()
 
     def run(self, kind, mode, measure, experiment=None, label=None):
-        """Start the two processes of `kind` (with the parameters of demo experiment `experiment`), wait for
-        the loop to answer, return measure(observer, procs); logs in <logdir>/<label or kind>_<mode>/."""
+        """Start the two processes of `kind` (with the parameters of demo experiment `experiment`, the bridge on
+        the engine RUN_ENGINES names for `label`, else on its default), wait for the loop to answer, return
+        measure(observer, procs); logs in <logdir>/<label or kind>_<mode>/."""
         procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}'))
         try:
-            for name, argv in node_commands(kind, mode, experiment):
+            for name, argv in node_commands(kind, mode, experiment, RUN_ENGINES.get(label)):
                 procs.start(name, argv)
             self.observer.drain()
             self.observer.wait_for('robot_joint_commands', procs)
@@ -292,16 +300,19 @@ def lockstep_window(plan):
     return measure
 
 
+#: B2's runs, each round in this order: label -> kind (node_commands); a label in RUN_ENGINES runs on its engine
+LOCKSTEP_RUNS = {'pingpong': 'pingpong', 'polar_two_link': 'polar_two_link', 'iiwa': 'iiwa', 'iiwa_mujoco': 'iiwa'}
+
+
 def bench_lockstep(plan, env, log, logdir):
-    """B2 metrics: ping-pong, polar and iiwa interleaved for plan.dds_rounds rounds."""
-    kinds = ('pingpong', 'polar_two_link', 'iiwa')
-    runs = {k: [] for k in kinds}
+    """B2 metrics: the LOCKSTEP_RUNS interleaved for plan.dds_rounds rounds."""
+    runs = {label: [] for label in LOCKSTEP_RUNS}
     with Session(env, logdir) as session:
         for r in range(plan.dds_rounds):
-            for kind in kinds:
-                runs[kind].append(session.run(kind, 'lockstep', lockstep_window(plan)))
-                rate, cpu = runs[kind][-1]
-                log(f'  round {r + 1}/{plan.dds_rounds} {kind}: {rate:.0f} steps/s, {cpu:.0f} us CPU per step')
+            for label, kind in LOCKSTEP_RUNS.items():
+                runs[label].append(session.run(kind, 'lockstep', lockstep_window(plan), label=label))
+                rate, cpu = runs[label][-1]
+                log(f'  round {r + 1}/{plan.dds_rounds} {label}: {rate:.0f} steps/s, {cpu:.0f} us CPU per step')
         warn_killed(session.killed, log)
     med = {k: np.median(np.array(v), axis=0) for k, v in runs.items()}
     out = {'lockstep_steps_per_s_polar': med['polar_two_link'][0], 'lockstep_steps_per_s_iiwa': med['iiwa'][0],
@@ -312,7 +323,21 @@ def bench_lockstep(plan, env, log, logdir):
     # CPU per step of both processes: what a step costs, whatever else runs on the machine
     out.update({f'lockstep_cpu_us_per_step_{SHORT[s]}': med[s][1] for s in ('polar_two_link', 'iiwa')})
     out['pingpong_cpu_us_per_roundtrip'] = med['pingpong'][1]
+    out.update(engine_lockstep(med, RUN_ENGINES))
     return {k: float(v) for k, v in out.items()}
+
+
+def engine_lockstep(med, engines):
+    """B2's figures of the runs on another engine (`engines`: label -> engine): steps/s, their ratio to the
+    ping-pong of the same run (B2's target holds for each) and the CPU per step, from `med` (label -> median
+    (steps/s, CPU us per step) over the rounds)."""
+    out = {}
+    for label in engines:
+        rate, cpu = med[label]
+        out.update({f'lockstep_steps_per_s_{label}': rate,
+                    f'lockstep_vs_pingpong_ratio_{label}': rate / med['pingpong'][0],
+                    f'lockstep_cpu_us_per_step_{label}': cpu})
+    return out
 
 
 # -- B3 ------------------------------------------------------------------------------------------
