@@ -391,7 +391,7 @@ def test_typical_and_gap_runs_get_their_own_tables_and_plots(tmp_path):
 
 def test_engine_runs_get_the_side_by_side_table_and_enter_no_other(tmp_path):
     """The runs on MuJoCo go beside their PyBullet twins in the engines' table, in the demo's order, with the
-    demo's verdict below (the same rows as the page's for the same figures); they enter neither the results table
+    demo's verdict below (polar_step's and force_steps' rows are the page's); they enter neither the results table
     nor the plots. An experiment run on PyBullet alone has no row."""
     results, docs = tmp_path / 'out' / 'demo', tmp_path / 'docs'
     joints = {'lbr_iiwa_joint_1': 'rad', 'lbr_iiwa_joint_2': 'rad'}
