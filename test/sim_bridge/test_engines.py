@@ -167,3 +167,19 @@ def test_a_joint_driven_into_its_limit_stops_there(world_on):
         peak = max(peak, world.state()[0][0])
     assert upper < peak < upper + 4e-3
     assert abs(world.state()[0][0] - upper) < 1e-4 and abs(world.state()[1][0]) < 1e-3
+
+
+def test_a_torque_command_is_checked_and_held_as_a_copy(world_on):
+    """hold_torque, the bridge's call: a list, a tuple or an array of n finite numbers is held (a copy: changing the
+    list afterwards changes nothing); anything else is refused naming tau."""
+    world = world_on('polar_two_link', surface=False)
+    for bad in ([np.nan, 0.0], [1.0], ['a', 1.0], [1.0, 2.0, 3.0]):
+        with pytest.raises(ArgumentError, match='tau'):
+            world.hold_torque(bad)
+    command = [1.0, 2.0]
+    world.hold_torque(command)
+    command[0] = 5.0
+    assert world.state()[2] == pytest.approx([1.0, 2.0])
+    for held in ((3.0, -1.0), np.array([-2.0, 0.5])):
+        world.hold_torque(held)
+        assert world.state()[2] == pytest.approx(held)
