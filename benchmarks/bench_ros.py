@@ -29,7 +29,9 @@ physics, no law), run once before each run of REALTIME_RUNS and pooled (missed p
 summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
 Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance,
 _iiwa_typical (computed torque on the iiwa's typical profile), _iiwa_joint_impedance_typical (joint impedance, its
-integral and friction compensation on that profile: the demo's iiwa_real_move).
+integral and friction compensation on that profile: the demo's iiwa_real_move), _iiwa_mujoco.
+Engines: the runs of RUN_ENGINES (B2's and B3's iiwa_mujoco: the iiwa under computed torque) give the bridge another
+physics engine (its `engine` parameter); every other run is on the bridge's default, PyBullet.
 """
 import importlib
 import math
@@ -120,10 +122,14 @@ def node_executor(module):
 #: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)
 REALTIME_RUNS = {'polar': ('polar_two_link', None), 'iiwa': ('iiwa', None),
                  'iiwa_hybrid': ('iiwa', 'iiwa_hybrid_line'), 'iiwa_impedance': ('iiwa', 'impedance_push'),
-                 'iiwa_typical': ('iiwa', None), 'iiwa_joint_impedance_typical': ('iiwa', 'iiwa_real_move')}
+                 'iiwa_typical': ('iiwa', None), 'iiwa_joint_impedance_typical': ('iiwa', 'iiwa_real_move'),
+                 'iiwa_mujoco': ('iiwa', None)}
 #: the runs (B2's and B3's keys) whose bridge stacks a realism profile after the scenario's file: key suffix ->
 #: the profile (robot_control.tools.demo.realism_profile); the others simulate the ideal twin
 REALISM = {'iiwa_typical': 'typical', 'iiwa_joint_impedance_typical': 'typical'}
+#: the runs (B2's and B3's keys) whose bridge runs on another engine than its default: key suffix -> engine
+#: (sim_bridge.engines.ENGINES)
+RUN_ENGINES = {'iiwa_mujoco': 'mujoco'}
 
 
 def experiment_params(name):
@@ -143,11 +149,11 @@ def experiment_params(name):
 BARE = {'pingpong': ('polar_two_link', 'ping', 'pong'), 'floor': ('iiwa', 'tick', 'echo')}
 
 
-def node_commands(kind, mode, experiment=None, realism='ideal'):
+def node_commands(kind, mode, experiment=None, realism='ideal', engine=None):
     """[(name, argv)] of the two processes of a run: a kind of BARE or a scenario name, with the parameters of
     demo experiment `experiment` (None: the scenario's file alone); the bridge stacks the scenario's profile of
-    `realism` ('ideal': none) after the scenario's file. The ends of a bare exchange use the executors of the
-    nodes they stand for."""
+    `realism` ('ideal': none) after the scenario's file and runs on physics engine `engine` (None: its default).
+    The ends of a bare exchange use the executors of the nodes they stand for."""
     if kind in BARE:
         scenario, *roles = BARE[kind]
         joints = list(scenarios.get(scenario).joints)
@@ -161,7 +167,7 @@ def node_commands(kind, mode, experiment=None, realism='ideal'):
     bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params,
               *(['--params-file', str(profile)] if profile is not None else []), *bridge_extra,
               '-p', f'mode:={mode}', '-p', 'physics_step:=0.001', '-p', f'control_period:={PERIOD_NS / NS}',
-              '-p', 'real_time_factor:=1.0']
+              '-p', 'real_time_factor:=1.0', *(['-p', f'engine:={engine}'] if engine else [])]
     controller = ['-m', 'robot_control.ros.controller_node', '--ros-args', '--params-file', params, *controller_extra]
     return [('sim_bridge', bridge), ('controller', controller)]
 
@@ -260,11 +266,11 @@ class Session:
 
     def run(self, kind, mode, measure, experiment=None, label=None, realism='ideal'):
         """Start the two processes of `kind` (with the parameters of demo experiment `experiment`, the bridge on
-        the profile of `realism`), wait for the loop to answer, return measure(observer, procs); logs in
-        <logdir>/<label or kind>_<mode>/."""
+        the profile of `realism` and on the engine RUN_ENGINES names for `label`, else on its default), wait for
+        the loop to answer, return measure(observer, procs); logs in <logdir>/<label or kind>_<mode>/."""
         procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}'))
         try:
-            for name, argv in node_commands(kind, mode, experiment, realism):
+            for name, argv in node_commands(kind, mode, experiment, realism, RUN_ENGINES.get(label)):
                 procs.start(name, argv)
             self.observer.drain()
             self.observer.wait_for('robot_joint_commands', procs)
@@ -306,8 +312,10 @@ def lockstep_window(plan):
     return measure
 
 
-#: B2's runs, each round in this order: label -> kind (node_commands); a label in REALISM runs on its profile
-LOCKSTEP_RUNS = {'pingpong': 'pingpong', 'polar_two_link': 'polar_two_link', 'iiwa': 'iiwa', 'iiwa_typical': 'iiwa'}
+#: B2's runs, each round in this order: label -> kind (node_commands); a label in REALISM runs on its profile, one
+#: in RUN_ENGINES on its engine
+LOCKSTEP_RUNS = {'pingpong': 'pingpong', 'polar_two_link': 'polar_two_link', 'iiwa': 'iiwa', 'iiwa_typical': 'iiwa',
+                 'iiwa_mujoco': 'iiwa'}
 
 
 def bench_lockstep(plan, env, log, logdir):
@@ -331,6 +339,7 @@ def bench_lockstep(plan, env, log, logdir):
     out.update({f'lockstep_cpu_us_per_step_{SHORT[s]}': med[s][1] for s in ('polar_two_link', 'iiwa')})
     out['pingpong_cpu_us_per_roundtrip'] = med['pingpong'][1]
     out.update(realism_cost(runs))
+    out.update(engine_lockstep(med, RUN_ENGINES))
     return {k: float(v) for k, v in out.items()}
 
 
@@ -342,6 +351,19 @@ def realism_cost(runs):
     return {'lockstep_steps_per_s_iiwa_typical': np.median(typical[:, 0]),
             'lockstep_cpu_us_per_step_iiwa_typical': np.median(typical[:, 1]),
             'lockstep_typical_vs_ideal_ratio_iiwa': np.median(typical[:, 0] / ideal[:, 0])}
+
+
+def engine_lockstep(med, engines):
+    """B2's figures of the runs on another engine (`engines`: label -> engine): steps/s, their ratio to the
+    ping-pong of the same run (B2's target holds for each) and the CPU per step, from `med` (label -> median
+    (steps/s, CPU us per step) over the rounds)."""
+    out = {}
+    for label in engines:
+        rate, cpu = med[label]
+        out.update({f'lockstep_steps_per_s_{label}': rate,
+                    f'lockstep_vs_pingpong_ratio_{label}': rate / med['pingpong'][0],
+                    f'lockstep_cpu_us_per_step_{label}': cpu})
+    return out
 
 
 # -- B3 ------------------------------------------------------------------------------------------

@@ -12,6 +12,8 @@ Each table lives in one page, between a pair of marker lines, and is rebuilt fro
 - docs/results.md, `<!-- gap:begin/end -->`: the iiwa_gap_* experiments (`--experiment iiwa_gap_<variant>`);
 - docs/results.md, `<!-- real-arm:begin/end -->`: the real-arm experiments on the typical robots
   (`--experiment <arm>_real_<variant> --realism typical`), not in the typical table;
+- docs/results.md, `<!-- engines:begin/end -->`: each experiment on PyBullet and on MuJoCo side by side
+  (`--all --engine both`, their summary's `engine`), from the same summaries;
 - docs/results.md, `<!-- plots:begin/end -->`: `docs/figures/<experiment>.png` (`<experiment>_typical.png` for the
   typical robot), copied from out/demo/*/tracking.png;
 - docs/benchmarks.md, `<!-- bench:begin/end -->`: `out/bench/results.md` (`make bench`);
@@ -25,7 +27,8 @@ markers is an error. The robustness table needs a whole run of test_robustness.p
 table a whole, passing run of test_two_hosts.py (a partial run is an error naming the missing figures;
 the command line leaves that table as it is and says so). The results table holds the ideal runs but the
 iiwa_gap_* ones (their own table) and is rebuilt only when some are found, so a directory of typical or gap
-runs alone leaves it. The demo's tracking plots are copied into
+runs alone leaves it. Those three tables and the plots take the runs on PyBullet, the default engine; the engines'
+table is rebuilt when some ideal run on another engine is found. The demo's tracking plots are copied into
 docs/figures/ as 64-colour PNGs (a fifth of the size, the same lines) and listed under `plots`.
 `--check` changes nothing and exits 1 when a page is not up to date with the inputs found.
 """
@@ -35,7 +38,7 @@ import math
 import sys
 from pathlib import Path
 
-from robot_control.tools import demo_experiments
+from robot_control.tools import demo, demo_experiments
 from robot_control.tools.demo_experiments import (EXPERIMENTS, GAP_EFFECTS, GAP_MOVE, GAP_VARIANTS, REAL_ARMS,
                                                   REAL_VARIANTS, REALISM)
 
@@ -57,6 +60,8 @@ REAL_ARM_BEGIN = '<!-- real-arm:begin -->'
 REAL_ARM_END = '<!-- real-arm:end -->'
 #: the experiment of each real-arm run: (arm, variant)
 REAL_ARM_EXPERIMENTS = {f'{arm}_real_{variant}': (arm, variant) for arm in REAL_ARMS for variant in REAL_VARIANTS}
+ENGINES_BEGIN = '<!-- engines:begin -->'
+ENGINES_END = '<!-- engines:end -->'
 #: the experiment of each iiwa_gap variant
 GAP_EXPERIMENTS = {f'iiwa_gap_{variant}': variant for variant in GAP_VARIANTS}
 #: the page of each table (in the docs directory)
@@ -162,6 +167,11 @@ def realism_of(summary):
     return summary.get('realism') or 'ideal'
 
 
+def engine_of(summary):
+    """The physics engine of a run's summary (the default, PyBullet, for a summary from before runs recorded it)."""
+    return summary.get('engine') or demo.ENGINES[0]
+
+
 def plot_name(experiment, realism='ideal'):
     """The name of an experiment's plot in docs/figures: <experiment>, <experiment>_typical."""
     return experiment if realism == 'ideal' else f'{experiment}_{realism}'
@@ -191,6 +201,11 @@ def table(summaries):
     lines += [row(name, s) for name, s in summaries]
     lines.append('')
     return '\n'.join(lines)
+
+
+def on_default_engine(summaries):
+    """The runs of load_summaries' [(name, summary)] on the default engine (PyBullet)."""
+    return [(n, s) for n, s in summaries if engine_of(s) == demo.ENGINES[0]]
 
 
 def split(summaries):
@@ -290,6 +305,55 @@ def real_arm_table(summaries):
                      f'{largest(s["rms_error"])} | {largest(s["final_error"])} | {figures(s.get("figures"))} | '
                      f'{number(s["saturated_ticks"])} |')
     return '\n'.join(lines + [''])
+#: the engines' names in the engines' table
+ENGINE_NAMES = {'pybullet': 'PyBullet', 'mujoco': 'MuJoCo'}
+ENGINE_COLUMNS = ('experiment', 'scenario', *(f'RMS error, {ENGINE_NAMES[e]}' for e in demo.ENGINES),
+                  'difference (relative)', *(f'steady force, {ENGINE_NAMES[e]}' for e in demo.ENGINES),
+                  'relative difference')
+
+
+def engine_pairs(summaries):
+    """{experiment: [its ideal run's summary on each engine of demo.ENGINES, or None]} of load_summaries'
+    [(name, summary)], for each experiment run on an engine other than the default, in the demo's order."""
+    runs = {(s.get('experiment') or name, engine_of(s)): s for name, s in summaries if realism_of(s) == 'ideal'}
+    names = [n for n in EXPERIMENTS if any((n, e) in runs for e in demo.ENGINES[1:])]
+    return {n: [runs.get((n, e)) for e in demo.ENGINES] for n in names}
+
+
+def difference(a, b, absolute=True):
+    """'<|a - b|> (<relative difference>)' of two figures of the engines (only the relative one without
+    `absolute`), '0' when they are equal, '-' when either is None."""
+    if a is None or b is None:
+        return '-'
+    if a == b:
+        return '0'
+    relative = f'{demo.relative_difference(a, b):.0e}'
+    return f'{abs(a - b):.1e} ({relative})' if absolute else relative
+
+
+def engines_table(summaries):
+    """The markdown between the engines markers: per experiment of engine_pairs(summaries) the largest RMS error over
+    its coordinates (demo.tracking_rms) and the steady force (demo.steady_force) on each engine and their
+    differences; then the experiments the demo flags (demo.differs: RMS errors more than RMS_ATOL and RMS_RTOL apart,
+    steady forces more than FORCE_RTOL)."""
+    pairs = engine_pairs(summaries)
+    lines = ['', GENERATED.format(source='`out/demo/*/summary.json` of both engines',
+                                  command='`python -m robot_control.demo --all --engine both`'), '',
+             '| ' + ' | '.join(ENGINE_COLUMNS) + ' |', '|---|---|' + '---:|' * (len(ENGINE_COLUMNS) - 2)]
+    flagged = []
+    for name, runs in pairs.items():
+        rms = [None if s is None else demo.tracking_rms(s) for s in runs]
+        force = [None if s is None else demo.steady_force(s) for s in runs]
+        scenario = next(s['scenario'] for s in runs if s is not None)
+        lines.append('| ' + ' | '.join((f'`{name}`', scenario, *('-' if v is None else f'{v:.4g}' for v in rms),
+                                        difference(*rms), *('-' if v is None else f'{v:.4f}' for v in force),
+                                        difference(*force, absolute=False))) + ' |')
+        if demo.differs(*rms, demo.RMS_ATOL, demo.RMS_RTOL) or demo.differs(*force, 0.0, demo.FORCE_RTOL):
+            flagged.append(f'`{name}`')
+    lines += ['', f'{len(pairs)} experiments. Flagged by the demo (RMS errors more than {demo.RMS_ATOL * 1e3:g} mrad '
+              f'and {demo.RMS_RTOL * 100:g} % apart, or steady forces more than {demo.FORCE_RTOL * 100:g} %): '
+              f'{", ".join(flagged) or "none"}.', '']
+    return '\n'.join(lines)
 
 
 def bench_table(bench_dir):
@@ -430,12 +494,12 @@ def save_figure(fig, out):
 
 
 def copy_plots(results_dir, figures_dir):
-    """Copy each run's `tracking.png` under results_dir to figures_dir/<experiment>.png in PLOT_COLOURS
-    colours; returns the experiments copied."""
+    """Copy each run's `tracking.png` under results_dir (the runs on the default engine) to
+    figures_dir/<experiment>.png in PLOT_COLOURS colours; returns the experiments copied."""
     from PIL import Image
     figures_dir = Path(figures_dir)
     copied = []
-    for name, summary in load_summaries(results_dir):
+    for name, summary in on_default_engine(load_summaries(results_dir)):
         source = Path(results_dir) / name / 'tracking.png'
         if not source.is_file():
             continue
@@ -505,12 +569,15 @@ def update(docs_dir, results_dir=None, check=False, bench_dir=None, robustness=N
     with `on_partial` given leave that table as it is and call on_partial(the error's text)."""
     pages = Pages(docs_dir)
     summaries = load_summaries(results_dir) if results_dir is not None and Path(results_dir).is_dir() else []
-    ideal, typical, gap, real = split(summaries)
+    default = on_default_engine(summaries)
+    ideal, typical, gap, real = split(default)
     for found, body, begin, end in ((ideal, table, BEGIN, END), (typical, typical_table, TYPICAL_BEGIN, TYPICAL_END),
                                     (gap, gap_table, GAP_BEGIN, GAP_END), (real, real_arm_table, REAL_ARM_BEGIN,
                                                                           REAL_ARM_END)):
         if found:
-            pages.put(RESULTS_PAGE, body(ideal if body is table else summaries), begin, end)
+            pages.put(RESULTS_PAGE, body(ideal if body is table else default), begin, end)
+    if engine_pairs(summaries):
+        pages.put(RESULTS_PAGE, engines_table(summaries), ENGINES_BEGIN, ENGINES_END)
     if summaries and not check:
         copy_plots(results_dir, pages.dir / FIGURES)
     pages.put(RESULTS_PAGE, plots(pages.dir / FIGURES), PLOTS_BEGIN, PLOTS_END)

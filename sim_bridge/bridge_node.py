@@ -95,8 +95,8 @@ class SimBridge(ParameterNode):
             self._pace_timer = self.create_timer(self._realtime_timer_period(), self._loop.on_timer, clock=steady)
         self._loop.start()
         self.get_logger().info(
-            f'{cfg.scenario or cfg.urdf}: {cfg.n} joints {list(self.joint_names)}, {cfg.mode}, physics step '
-            f'{cfg.physics_step} s, control period {cfg.control_period} s'
+            f'{cfg.scenario or cfg.urdf}: {cfg.n} joints {list(self.joint_names)} on {cfg.engine}, {cfg.mode}, '
+            f'physics step {cfg.physics_step} s, control period {cfg.control_period} s'
             + ('' if cfg.lockstep else f', real-time factor {cfg.real_time_factor}'))
         for line in self._world.report:            # the URDF's warnings, physics unlike the URDF's
             self.get_logger().warn(line)

@@ -16,6 +16,11 @@ MuJoCo compiles URDF itself; what it would add or refuse is taken out:
   constraint scales it would recompute, dof_invweight0 for the joint limits, keep the compiled ones.)
 - Joint damping, armature and friction loss are zeroed; contacts are off (there are no geoms); the
   Jacobian is dense (MuJoCo's sparse path is for large models, nv >= 60, and is never taken here).
+- The URDF's position limits are as hard as PyBullet's: MuJoCo's limit constraint, soft by default (solref
+  time constant 20 ms, impedance 0.9-0.95: the iiwa's joint 1 driven into its limit at 30 N m overshoots
+  by 0.15 rad), gets the shortest time constant MuJoCo allows (LIMIT_SOLREF_STEPS = 2 steps), critically
+  damped, and LIMIT_SOLIMP (impedance 0.99 at the limit, 0.9999 from 1 mrad past it): it stops the joint
+  about one step's travel past its limit (3 mrad there, PyBullet 1.7 mrad) and holds it there.
 Units SI; gravity along world -z.
 """
 import xml.etree.ElementTree as ET
@@ -27,6 +32,10 @@ from sim_bridge.world_base import urdf_inertials
 
 #: the threshold of MuJoCo's compiler check on moving bodies (mjMINVAL)
 MINVAL = 1e-15
+#: the joint limits' constraint: solref (time constant in steps, damping ratio) and solimp (impedance at the limit,
+#: impedance from `width` past it, width rad or m, midpoint, power), MuJoCo's meanings
+LIMIT_SOLREF_STEPS, LIMIT_DAMPING_RATIO = 2.0, 1.0
+LIMIT_SOLIMP = (0.99, 0.9999, 0.001, 0.5, 2.0)
 _PLACEHOLDER = {'mass': {'value': '1'},
                 'inertia': {'ixx': '1', 'ixy': '0', 'ixz': '0', 'iyy': '1', 'iyz': '0', 'izz': '1'}}
 
@@ -100,6 +109,8 @@ def load(xml, joints, gravity, dt):
     model.dof_armature[:] = 0.0
     model.dof_frictionloss[:] = 0.0
     model.jnt_stiffness[:] = 0.0
+    model.jnt_solref[:] = (LIMIT_SOLREF_STEPS * dt, LIMIT_DAMPING_RATIO)
+    model.jnt_solimp[:] = LIMIT_SOLIMP
     model.opt.gravity[:] = (0.0, 0.0, -gravity)
     model.opt.timestep = dt
     model.opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE

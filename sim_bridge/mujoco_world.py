@@ -190,11 +190,14 @@ class MujocoWorld:
         return self._tau.copy()
 
     def hold_torque(self, tau):
-        """set_torque without the returned array (the bridge's call)."""
-        tau = np.array(validation.vector('tau', tau, self.n), dtype=float)     # a copy: held until changed
-        if tau.max() > self._limit_min or tau.min() < -self._limit_min:      # most commands: nothing to clip
-            tau = np.minimum(np.maximum(tau, -self._limit), self._limit)
-        self._tau = tau
+        """set_torque without the returned array: the bridge's call, once per control period. A list of n finite
+        numbers is checked by one sum (validation.float_list) and compared without numpy."""
+        values = validation.float_list(tau, self.n)
+        if values is None:
+            values = validation.vector('tau', tau, self.n)
+        if max(values) > self._limit_min or min(values) < -self._limit_min:   # most commands: nothing to clip
+            values = np.minimum(np.maximum(values, -self._limit), self._limit)
+        self._tau = np.array(values, dtype=float)                               # a copy: held until changed
 
     def set_friction(self, friction):
         """Replace the joints' friction and armature (World's `friction` argument), from the next step."""

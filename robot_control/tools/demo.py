@@ -50,11 +50,12 @@ from pathlib import Path
 from robot_control import scenarios, units
 from robot_control.laws import LAWS
 from robot_control.tools import demo_experiments as experiments
+from robot_control.tools.demo_experiments import realism_profile
 from robot_control.tools import demo_metrics
 from robot_control.tools import processes as procs
 
 NS = units.NS_PER_S
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = experiments.ROOT
 #: extra arguments of sim_bridge_node before --ros-args (e.g. ('--executor', 'single'))
 BRIDGE_ARGS = ()
 STARTUP_TIMEOUT = 60.0    # s of wall time for a node to come up (Pinocchio/PyBullet imports)
@@ -90,26 +91,10 @@ def config_path(scenario):
     a `scenario` ending in .yaml is the path of a parameter file of one's own (a robot of no scenario)."""
     if str(scenario).endswith('.yaml'):
         return Path(scenario)
-    path = _config_file(f'{scenario}.yaml')
+    path = experiments.config_file(f'{scenario}.yaml')
     if path is None:
         raise ValueError(f'scenario: no parameter file {scenario}.yaml in {ROOT / "config"} or the install')
     return path
-
-
-def _config_file(relative):
-    """config/<relative> of this checkout, else of the installed package; None when neither has it."""
-    for base in (ROOT / 'config', Path(sys.prefix) / 'share' / 'robot_control' / 'config'):
-        if (base / relative).is_file():
-            return base / relative
-    return None
-
-
-def realism_profile(scenario, realism):
-    """The parameter file the bridge stacks after the scenario's for `realism` (demo_experiments.REALISM):
-    None for 'ideal' and for a scenario without a profile, else config/realism/<scenario>_<realism>.yaml."""
-    if realism not in experiments.REALISM:
-        raise ValueError(f'realism: expected one of {experiments.REALISM}, got {realism!r}')
-    return None if realism == 'ideal' else _config_file(f'realism/{scenario}_{realism}.yaml')
 
 
 def param_value(value):
@@ -693,9 +678,16 @@ def steady_force(summary):
     return summary['force_reference'][axis] - summary['force_steady_state_error'][axis]
 
 
-def _differ(a, b, atol, rtol):
-    """'' when a and b (or either missing) agree within atol or rtol of the larger magnitude, else 'differs'."""
-    if a is None or b is None or abs(a - b) < atol or abs(a - b) < rtol * max(abs(a), abs(b)):
+def relative_difference(a, b):
+    """|a - b| / max(|a|, |b|) of two figures of the engines; 0 when both are 0."""
+    larger = max(abs(a), abs(b))
+    return abs(a - b) / larger if larger else 0.0
+
+
+def differs(a, b, atol, rtol):
+    """'' when a and b (or either missing) agree within atol or rtol of the larger magnitude
+    (relative_difference), else 'differs'."""
+    if a is None or b is None or abs(a - b) < atol or relative_difference(a, b) < rtol:
         return ''
     return 'differs'
 
@@ -711,8 +703,8 @@ def side_by_side(summaries, names):
         runs = [summaries.get((name, e)) for e in ENGINES]
         rms = [None if r is None else tracking_rms(r) for r in runs]
         force = [None if r is None else steady_force(r) for r in runs]
-        cells = [name] + [fmt(v, '.3e') for v in rms] + [_differ(*rms, RMS_ATOL, RMS_RTOL)]
-        cells += [fmt(v, '.3f') for v in force] + [_differ(*force, 0.0, FORCE_RTOL)]
+        cells = [name] + [fmt(v, '.3e') for v in rms] + [differs(*rms, RMS_ATOL, RMS_RTOL)]
+        cells += [fmt(v, '.3f') for v in force] + [differs(*force, 0.0, FORCE_RTOL)]
         lines.append('| ' + ' | '.join(cells) + ' |')
     return '\n'.join(lines)
 

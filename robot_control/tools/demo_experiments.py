@@ -21,7 +21,9 @@ References reach the controller as ROS messages:
   first at or past t, which the run records (RunData.events, summary `bridge_events`).
 """
 import math
+import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -507,7 +509,6 @@ def real_friction(scenario, scale=1.0):
     """friction_compensation.coulomb and .viscous at `scale` times config/realism/<scenario>_typical.yaml's friction."""
     import yaml
 
-    from robot_control.tools.demo import realism_profile
     with open(realism_profile(scenario, 'typical'), encoding='utf-8') as f:
         friction = yaml.safe_load(f)['/**/sim_bridge']['ros__parameters']['friction']
     return {f'friction_compensation.{k}': [scale * v for v in friction[k]] for k in ('coulomb', 'viscous')}
@@ -589,6 +590,26 @@ EXPERIMENTS = tuple(_BUILDERS)
 #: the realism of a run: 'ideal' simulates the robot the controller models; 'typical' stacks the scenario's
 #: realism profile (config/realism/<scenario>_typical.yaml) on the bridge's parameters
 REALISM = ('ideal', 'typical')
+
+
+#: the checkout's root (config/ beside robot_control/)
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def config_file(relative):
+    """config/<relative> of this checkout, else of the installed package; None when neither has it."""
+    for base in (ROOT / 'config', Path(sys.prefix) / 'share' / 'robot_control' / 'config'):
+        if (base / relative).is_file():
+            return base / relative
+    return None
+
+
+def realism_profile(scenario, realism):
+    """The parameter file the bridge stacks after the scenario's for `realism` (REALISM): None for 'ideal' and
+    for a scenario without a profile, else config/realism/<scenario>_<realism>.yaml."""
+    if realism not in REALISM:
+        raise ValueError(f'realism: expected one of {REALISM}, got {realism!r}')
+    return None if realism == 'ideal' else config_file(f'realism/{scenario}_{realism}.yaml')
 
 
 def output_name(name, realism='ideal'):

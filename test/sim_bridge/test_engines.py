@@ -150,3 +150,36 @@ def test_a_heavier_robot_is_the_same_on_both_engines():
             qd[engine] = world.state()[1]
     np.testing.assert_allclose(qd['mujoco'], qd['pybullet'], rtol=1e-9, atol=1e-9 * np.abs(qd['pybullet']).max())
     assert np.abs(qd['nominal']).max() < 1e-9 < 1e-3 * np.abs(qd['mujoco']).max()
+
+
+def test_a_joint_driven_into_its_limit_stops_there(world_on):
+    """The iiwa's joint 1 (a vertical axis: gravity does not load it), driven at 30 N m over the gravity hold from
+    the middle of its range, reaches its URDF limit at some 3 rad/s: it stops within a few mrad past it (about one
+    step's travel) and rests at it."""
+    world = world_on('iiwa', surface=False)
+    upper = for_scenario('iiwa').position_limits[1][0]
+    tau = for_scenario('iiwa').g(world.state()[0])
+    tau[0] += 30.0
+    world.set_torque(tau)
+    peak = -np.inf
+    for _ in range(1500):
+        world.step()
+        peak = max(peak, world.state()[0][0])
+    assert upper < peak < upper + 4e-3
+    assert abs(world.state()[0][0] - upper) < 1e-4 and abs(world.state()[1][0]) < 1e-3
+
+
+def test_a_torque_command_is_checked_and_held_as_a_copy(world_on):
+    """hold_torque, the bridge's call: a list, a tuple or an array of n finite numbers is held (a copy: changing the
+    list afterwards changes nothing); anything else is refused naming tau."""
+    world = world_on('polar_two_link', surface=False)
+    for bad in ([np.nan, 0.0], [1.0], ['a', 1.0], [1.0, 2.0, 3.0]):
+        with pytest.raises(ArgumentError, match='tau'):
+            world.hold_torque(bad)
+    command = [1.0, 2.0]
+    world.hold_torque(command)
+    command[0] = 5.0
+    assert world.state()[2] == pytest.approx([1.0, 2.0])
+    for held in ((3.0, -1.0), np.array([-2.0, 0.5])):
+        world.hold_torque(held)
+        assert world.state()[2] == pytest.approx(held)

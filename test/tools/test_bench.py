@@ -33,11 +33,13 @@ KEYS = (
     'lockstep_steps_per_s_polar', 'lockstep_steps_per_s_iiwa', 'pingpong_roundtrips_per_s',
     'lockstep_vs_pingpong_ratio', 'lockstep_steps_per_s_iiwa_typical', 'lockstep_cpu_us_per_step_iiwa_typical',
     'lockstep_typical_vs_ideal_ratio_iiwa',
+    *(f'lockstep_{stem}_iiwa_mujoco' for stem in ('steps_per_s', 'vs_pingpong_ratio', 'cpu_us_per_step')),
     'realtime_missed_vs_floor',
     'realtime_1khz_deadline_hit_ratio', 'realtime_latency_p50_ms', 'realtime_latency_p99_ms', 'realtime_rtf',
     *(f'realtime_floor_{metric}' for metric in ('missed_periods', 'periods', '1khz_deadline_hit_ratio',
                                                 'latency_p99_ms', 'rtf')),
-    *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance', 'iiwa_typical')
+    *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance', 'iiwa_typical',
+                                              'iiwa_mujoco')
       for metric in ('missed_vs_floor', 'missed_periods', 'periods', 'floor_missed_periods',
                      '1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
     'sim_steps_per_s_iiwa', 'sim_steps_per_s_iiwa_mujoco', 'sim_steps_mujoco_vs_pybullet',
@@ -67,6 +69,9 @@ def test_quick_bench_writes_every_key_as_a_finite_number(tmp_path):
     assert 'Targets met: ' in proc.stdout                   # with its verdict
     with open(tmp_path / 'results.md', encoding='utf-8') as f:
         assert 'Targets met: ' in f.read()
+    for run in ('iiwa_mujoco_lockstep', 'iiwa_mujoco_realtime', 'iiwa_lockstep'):     # each bridge on its engine
+        with open(tmp_path / 'logs' / run / 'sim_bridge.log', encoding='utf-8') as f:
+            assert f"on {'mujoco' if 'mujoco' in run else 'pybullet'}, " in f.read(), run
 
 
 def test_modern_robotics_chain_has_pinocchio_dynamics():
@@ -171,6 +176,30 @@ def test_the_typical_runs_stack_the_realism_profile_on_the_bridge_alone():
     assert bench.verdict('lockstep_typical_vs_ideal_ratio_iiwa', 0.89).startswith('MISSED')
     for metric in ('rtf', 'latency_p99_ms', 'missed_vs_floor'):
         assert bench.TARGETS[f'realtime_{metric}_iiwa_typical'] == bench.TARGETS[f'realtime_{metric}']
+
+
+def test_the_mujoco_runs_give_the_bridge_its_engine_and_meet_the_same_targets():
+    """B2's and B3's iiwa_mujoco runs are the iiwa's runs with the bridge's `engine` set to mujoco after the
+    scenario's file (the later value wins), the controller unchanged; the other runs keep the bridge's default.
+    Their figures are held to the targets of the runs on PyBullet."""
+    from benchmarks import bench, bench_ros
+    assert bench_ros.RUN_ENGINES == {'iiwa_mujoco': 'mujoco'}
+    assert bench_ros.REALTIME_RUNS['iiwa_mujoco'] == bench_ros.REALTIME_RUNS['iiwa'] == ('iiwa', None)
+    assert bench_ros.LOCKSTEP_RUNS['iiwa_mujoco'] == bench_ros.LOCKSTEP_RUNS['iiwa'] == 'iiwa'
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'lockstep', engine='mujoco')
+    (_, default_bridge), (_, default_controller) = bench_ros.node_commands('iiwa', 'lockstep')
+    assert bridge == [*default_bridge, '-p', 'engine:=mujoco'] and controller == default_controller
+    assert not any('engine' in a for a in default_bridge)
+    med = {'pingpong': (5000.0, 150.0), 'iiwa_mujoco': (3950.0, 240.0)}
+    out = bench_ros.engine_lockstep(med, bench_ros.RUN_ENGINES)
+    assert out == {'lockstep_steps_per_s_iiwa_mujoco': 3950.0, 'lockstep_vs_pingpong_ratio_iiwa_mujoco': 0.79,
+                   'lockstep_cpu_us_per_step_iiwa_mujoco': 240.0}
+    out['pingpong_roundtrips_per_s'] = 5000.0
+    assert bench.verdict('lockstep_vs_pingpong_ratio_iiwa_mujoco', 0.79, out) == \
+        'MISSED (>= 0.8): 3950 steps/s / ping-pong 5000 round trips/s'
+    assert bench.TARGETS['lockstep_vs_pingpong_ratio_iiwa_mujoco'] == bench.TARGETS['lockstep_vs_pingpong_ratio']
+    for metric in ('rtf', 'latency_p99_ms', 'missed_vs_floor'):
+        assert bench.TARGETS[f'realtime_{metric}_iiwa_mujoco'] == bench.TARGETS[f'realtime_{metric}']
 
 
 def test_law_ticks_run_the_controllers_laws():
