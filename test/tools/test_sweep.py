@@ -41,7 +41,7 @@ def polar(episodes=3, seed=7, controller=None, sample=None, criteria=None, durat
 
 
 def without_wall(row):
-    return {k: v for k, v in row.items() if k != 'wall_s'}
+    return {k: v for k, v in row.items() if k not in sweep_episode.RUN_COLUMNS}
 
 
 def equal_rows(a, b):
