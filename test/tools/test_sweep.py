@@ -393,3 +393,6 @@ def test_the_docs_distributions_parse_and_the_shipped_spec_plans():
     spec = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'polar_mass_error.yaml'))
     p = sweep_episode.plan(spec)
     assert spec.episodes == 200 and p.experiment.scenario == 'polar_two_link' and p.coordinates == ('theta1', 'r')
+    bench = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'iiwa_typical.yaml'))     # make bench's B5
+    p = sweep_episode.plan(bench)
+    assert bench.episodes == 1000 and p.ticks == 3001 and p.values['sim_bridge']['armature'][0] == 0.1
