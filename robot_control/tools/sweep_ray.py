@@ -13,6 +13,7 @@ them all at once). Ray is imported only here (`pip install ray`); the driver con
 is already running (`ray start`), and never starts one.
 """
 import os
+import socket
 import sys
 
 from robot_control.tools import sweep_engine
@@ -20,6 +21,7 @@ from robot_control.validation import ArgumentError
 
 MAX_RETRIES = 5              # runs of a task again after its worker process or node died
 IN_FLIGHT_PER_CPU = 4        # tasks submitted and not yet collected, per CPU of the cluster
+CONNECT_TIMEOUT = 10.0       # s for the head's port to answer before ray.init
 
 _DIGEST = None
 
@@ -44,6 +46,13 @@ def connect(address):
         raise ArgumentError('ray', 'Ray is not installed (pip install ray)') from None
     if ray.is_initialized():
         return False
+    if address != 'auto':
+        host, _, port = address.rpartition(':')
+        try:
+            socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT).close()
+        except (OSError, ValueError) as exc:      # ray.init would retry for minutes
+            raise ArgumentError('ray', f'no Ray cluster answers at {address!r} (expected HOST:PORT of its head, '
+                                       f'or auto): {exc}') from None
     try:
         ray.init(address=address, log_to_driver=False, logging_level='warning')
     except (ConnectionError, ValueError, RuntimeError) as exc:

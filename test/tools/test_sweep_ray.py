@@ -77,6 +77,12 @@ def test_a_sweep_on_a_two_host_ray_cluster_runs_on_both_nodes_and_equals_the_loc
     assert nodes == {cluster.addr['a'], cluster.addr['b']}, nodes
 
 
+def test_an_address_where_no_cluster_answers_exits_2_naming_it(tmp_path, capsys):
+    from robot_control.tools import sweep
+    assert sweep.main(['run', str(write_spec(tmp_path)), '--ray', '127.0.0.1:1', '--out', str(tmp_path / 'r')]) == 2
+    assert "sweep: ray: no Ray cluster answers at '127.0.0.1:1'" in capsys.readouterr().err
+
+
 def test_a_ray_worker_killed_mid_sweep_loses_no_episode_and_counts_none_twice(cluster, local, tmp_path):
     out = tmp_path / 'killed'
     table = out / 'episodes.csv'
