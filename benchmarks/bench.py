@@ -107,17 +107,17 @@ class Plan:
     dds_warmup_s: float      # B2/B3 wall time discarded after the first state
     dds_window_s: float      # B2 measured window per run
     realtime_s: float        # B3 measured duration per scenario
-    sweep_episodes: int      # B5 episodes on the local workers
-    sweep_ray_episodes: int  # B5 episodes on the Ray cluster
-    sweep_single: int        # B5 episodes in process before and after the sweeps (each)
+    sweep_episodes: int      # B5 episodes of the timed local run
+    sweep_ratio_episodes: int  # B5 episodes of each ratio's sweep (local, Ray)
+    sweep_single: int        # B5 episodes in process before and after each ratio's sweep (each)
 
 
 FULL = Plan(law_rounds=10, law_calls=400, mr_calls=10, world_rounds=7, world_steps=2000,
             dds_rounds=5, dds_warmup_s=1.0, dds_window_s=3.0, realtime_s=20.0,
-            sweep_episodes=1000, sweep_ray_episodes=60, sweep_single=3)
+            sweep_episodes=1000, sweep_ratio_episodes=40, sweep_single=2)
 QUICK = Plan(law_rounds=3, law_calls=100, mr_calls=2, world_rounds=3, world_steps=300,
              dds_rounds=1, dds_warmup_s=0.3, dds_window_s=1.0, realtime_s=2.0,
-             sweep_episodes=6, sweep_ray_episodes=6, sweep_single=1)
+             sweep_episodes=6, sweep_ratio_episodes=6, sweep_single=1)
 
 
 # -- statistics ----------------------------------------------------------------------------------

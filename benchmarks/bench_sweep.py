@@ -9,6 +9,8 @@ on the typical realism profile, 3 s (3001 ticks) per episode.
 - sweep_ray_vs_episode_ratio: the same over a Ray cluster of two hosts (support.ray_cluster: two network
   namespaces joined by veth, one CPU each; the driver, `sweep run --ray`, in the head's namespace); only
   where network namespaces can be made (root), else absent.
+- sweep_local_s: the wall time of plan.sweep_episodes episodes (1,000 in the full run) on the local workers;
+  sweep_local_1000_s scaled to 1,000.
 """
 import os
 import re
@@ -60,24 +62,37 @@ def ray_sweep(episodes, out, log):
     return float(found.group(2).replace(',', ''))
 
 
+def bracketed(p, run, singles):
+    """(the sweep's ticks/s from run(), one episode's ticks/s in process: the median of `singles` episodes just
+    before and `singles` just after it), so that both see the same load."""
+    single = episode_rate(p, singles, 0)
+    ticks = run()
+    single += episode_rate(p, singles, singles)
+    return ticks, statistics.median(single)
+
+
 def bench_sweep(plan, log):
-    """B5's figures (module docstring), with plan.sweep_episodes local episodes and plan.sweep_ray_episodes
-    on the Ray cluster."""
+    """B5's figures (module docstring): plan.sweep_ratio_episodes episodes for each ratio, plan.sweep_episodes
+    for the wall time."""
     cores = os.cpu_count() or 1
-    spec = sweep_spec.load(SPEC).with_episodes(plan.sweep_episodes)
+    spec = sweep_spec.load(SPEC)
     p = sweep_episode.plan(spec)
     episode_rate(p, 1, 0)                                           # warm-up: imports, first World
-    single = episode_rate(p, plan.sweep_single, 0)
+    out = {}
     with tempfile.TemporaryDirectory(prefix='bench_sweep_') as tmp:
-        log(f'  {plan.sweep_episodes} episodes on {cores} local workers ...')
-        wall, local_ticks = local_sweep(spec, cores, os.path.join(tmp, 'local'))
-        log(f'  {plan.sweep_ray_episodes} episodes on a two-host Ray cluster ...')
-        ray_ticks = ray_sweep(plan.sweep_ray_episodes, os.path.join(tmp, 'ray'), log)
-    single += episode_rate(p, plan.sweep_single, plan.sweep_single)
-    rate = statistics.median(single)
-    out = {'sweep_episode_ticks_per_s': rate, 'sweep_local_s': wall,
-           'sweep_local_1000_s': wall * 1000 / plan.sweep_episodes,
-           'sweep_local_vs_episode_ratio': local_ticks / (rate * cores)}
-    if ray_ticks is not None:
-        out['sweep_ray_vs_episode_ratio'] = ray_ticks / (rate * 2)
+        log(f'  {plan.sweep_ratio_episodes} episodes on {cores} local workers, between episodes in process ...')
+        local, rate = bracketed(p, lambda: local_sweep(spec.with_episodes(plan.sweep_ratio_episodes), cores,
+                                                       os.path.join(tmp, 'ratio'))[1], plan.sweep_single)
+        out.update(sweep_episode_ticks_per_s=rate, sweep_local_vs_episode_ratio=local / (rate * cores))
+        one, rate = bracketed(p, lambda: local_sweep(spec.with_episodes(plan.sweep_ratio_episodes // cores), 1,
+                                                     os.path.join(tmp, 'one'))[1], plan.sweep_single)
+        out['sweep_local_1_worker_vs_episode_ratio'] = one / rate
+        log(f'  {plan.sweep_ratio_episodes} episodes on a two-host Ray cluster, between episodes in process ...')
+        ray, rate = bracketed(p, lambda: ray_sweep(plan.sweep_ratio_episodes, os.path.join(tmp, 'ray'), log),
+                              plan.sweep_single)
+        if ray is not None:
+            out['sweep_ray_vs_episode_ratio'] = ray / (rate * 2)
+        log(f'  {plan.sweep_episodes} episodes on {cores} local workers, timed ...')
+        wall, _ = local_sweep(spec.with_episodes(plan.sweep_episodes), cores, os.path.join(tmp, 'local'))
+    out.update(sweep_local_s=wall, sweep_local_1000_s=wall * 1000 / plan.sweep_episodes)
     return out
