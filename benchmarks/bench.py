@@ -20,13 +20,18 @@ B1 law cost per control tick, us (median, p99): what the controller pays for its
    modern_robotics.ComputedTorque on the same iiwa and inputs (torques checked equal to computed_torque's
    within 1e-8; speedup_vs_modern_robotics against the checked function, function against function).
 B2 lockstep closed loop over DDS (benchmarks.bench_ros), against a bare rclpy ping-pong; also
-   the CPU time of both processes per step, which the other load of a shared machine hardly moves.
+   the CPU time of both processes per step, which the other load of a shared machine hardly moves. The cost
+   of the realism: the iiwa with its typical profile (config/realism/iiwa_typical.yaml) against the ideal
+   iiwa, round by round (lockstep_typical_vs_ideal_ratio_iiwa >= 0.9).
 B3 real time at 1 kHz (benchmarks.bench_ros): the polar arm, the iiwa under computed torque,
-   hybrid control on the table and Cartesian impedance, each after a run of the floor (the bare exchange
+   hybrid control on the table, Cartesian impedance and computed torque on the iiwa's typical realism
+   profile, each after a run of the floor (the bare exchange
    of states and commands at 1 kHz without physics and law); the targets hold for each run: missed
    periods at most 1.5 times the floor's runs pooled over as many periods (a floor of 0 allows 1), p99
    latency <= 1 ms, real-time factor >= 0.99.
-B4 the PyBullet World of the iiwa without ROS: physics steps per second under torque control.
+B4 the World of the iiwa without ROS, on PyBullet and on MuJoCo (sim_bridge.engines), rounds interleaved: physics
+   steps per second under torque control (set_torque, step, state), the table in the world on both; the target is
+   on MuJoCo's rate over PyBullet's in the same run (sim_steps_mujoco_vs_pybullet).
 B5 sweep throughput (benchmarks.bench_sweep): the iiwa under computed torque on the typical profile, 3 s
    episodes; the sweep's ticks/s on the local worker processes (one per core) and on a two-host Ray cluster
    (two network namespaces, one CPU each; where namespaces can be made) over one episode's tick rate in
@@ -56,6 +61,8 @@ from robot_control.tools import processes
 #: B1's laws: case -> key stem of their figures
 LAWS = {'ct_2dof': 'law_us_ct_2dof', 'ct_7dof': 'law_us_ct_7dof', 'hybrid_7dof': 'law_us_hybrid_7dof',
         'impedance_7dof': 'law_us_impedance_7dof'}
+#: B1's laws for a real arm (benchmarks.bench_real_arm)
+LAWS.update({'joint_impedance_7dof': 'law_us_joint_impedance_7dof', 'adaptive_7dof': 'law_us_adaptive_7dof'})
 #: the targets: key -> (comparison, bound); the table marks each figure met or MISSED. Ratios of figures of
 #: the same run wherever the figure depends on the machine; latency and real-time factor are the loop's
 #: own requirements at 1 kHz.
@@ -64,14 +71,18 @@ TARGETS = {
     'law_vs_rnea_ct_7dof': ('<=', 8.0),
     'law_vs_rnea_hybrid_7dof': ('<=', 30.0),
     'law_vs_rnea_impedance_7dof': ('<=', 30.0),
+    'law_vs_rnea_joint_impedance_7dof': ('<=', 8.0),
+    'law_vs_rnea_adaptive_7dof': ('<=', 30.0),
     'speedup_vs_modern_robotics': ('>=', 20.0),
     'lockstep_vs_pingpong_ratio': ('>=', 0.8),
+    'lockstep_typical_vs_ideal_ratio_iiwa': ('>=', 0.9),
     'realtime_missed_vs_floor': ('<=', 1.5),
     'realtime_latency_p99_ms': ('<=', 1.0),
     'realtime_rtf': ('>=', 0.99),
     'sweep_local_vs_episode_ratio': ('>=', 0.8),
     'sweep_ray_vs_episode_ratio': ('>=', 0.7),
     'sweep_local_1000_s': ('<=', 60.0),
+    'sim_steps_mujoco_vs_pybullet': ('>=', 1.0),
 }
 #: B3's targets hold for each of its runs as well
 for _run in REALTIME_RUNS:
@@ -89,6 +100,8 @@ BESIDE.update({f'realtime_missed_vs_floor_{_run}': f'{{realtime_missed_periods_{
                '{realtime_floor_periods:.0f}' for _run in REALTIME_RUNS})
 BESIDE.update({'sweep_local_vs_episode_ratio': '1 episode {sweep_episode_ticks_per_s:,.0f} ticks/s in process',
                'sweep_local_1000_s': 'measured {sweep_local_s:.1f} s for the run\'s episodes'})
+BESIDE['lockstep_typical_vs_ideal_ratio_iiwa'] = ('median of the rounds; medians {lockstep_steps_per_s_iiwa_typical:.0f} '
+                                                  '/ {lockstep_steps_per_s_iiwa:.0f} steps/s')
 #: tolerance of the modern_robotics cross-check, N m
 MR_TOLERANCE = 1e-8
 SEED = 6
@@ -165,7 +178,7 @@ class LawTick:
     def __init__(self, config):
         from robot_control.laws import Reference
         self.law = law = config.control_law
-        n, k = config.n, len(config.force_axes) if law.uses_force else 0
+        n, k = config.n, len(law.force_task.force_axes)
         force = (np.zeros(k), np.zeros(k), np.zeros(k)) if k else (None, None, None)
         self.ref = Reference(np.zeros(n), np.zeros(n), np.zeros(n), *force)
 
@@ -200,6 +213,7 @@ def law_cases(count):
     import pinocchio as pin
 
     from benchmarks.bench_mr import mr_chain
+    from benchmarks.bench_real_arm import real_arm_cases
     from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
     from robot_control.laws import computed_torque
@@ -231,6 +245,7 @@ def law_cases(count):
             'ct_7dof_checked': (computed_torque, ct7),
             **hybrid_cases(iiwa, states),
             **impedance_cases(for_scenario('iiwa', task_space='pose'), states),
+            **real_arm_cases(iiwa, states),
             'mr_ct_7dof': (mr.ComputedTorque, mr_in), 'pin_rnea': (pin.rnea, rnea)}
 
 
@@ -246,9 +261,12 @@ def hybrid_cases(iiwa, states):
     from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
     from robot_control.laws import hybrid
+    from robot_control.laws.force_task import gain_params
+    force_gains = ServoGains.uniform(1, KP, KV)
     config = ControllerConfig(iiwa, law='hybrid', gains=ServoGains.uniform(3, KP, KV),
-                              force_gains=ServoGains.uniform(1, KP, KV), force_axes=('z',), k_e=(K_E,), x_e=(X_E,))
-    axes = config.force_mask
+                              law_params={'force_axes': ('z',), 'k_e': (K_E,), 'x_e': (X_E,), **gain_params(force_gains)})
+    axes = config.control_law.force_task.mask
+    posture = config.law_params.posture.gains(iiwa.n)
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d, F_D, 0.0, 0.0), None)
                                      for q, qd, q_d, qd_d, qdd_d, _ in states], np.where(axes, F_SENSED, 0.0))
     checked = []
@@ -256,7 +274,7 @@ def hybrid_cases(iiwa, states):
         f, fdot = np.zeros(3), np.zeros(3)
         f[axes], fdot[axes] = state.f, state.fdot
         checked.append((iiwa, q, qd, *iiwa._task_motion(q_d, qd_d, qdd_d), np.where(axes, F_D, 0.0), np.zeros(3),
-                        np.zeros(3), f, fdot, axes, K_E, config.gains, config.force_gains, q_d, config.posture_gains))
+                        np.zeros(3), f, fdot, axes, K_E, config.gains, force_gains, q_d, posture))
     return {'hybrid_7dof': (tick, inputs), 'hybrid_7dof_checked': (hybrid, checked)}
 
 
@@ -274,8 +292,9 @@ def impedance_cases(model, states):
                                                                    'cartesian_damping_ratio': 1.0})
     params = config.law_params
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d), None) for q, qd, q_d, qd_d, qdd_d, _ in states])
+    posture = params.posture.gains(model.n)
     checked = [(model, q, qd, *model._task_motion(q_d, qd_d, qdd_d), STIFFNESS, params.cartesian_damping_ratio,
-                None, None, q_d, config.posture_gains, params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
+                None, None, q_d, posture, params.max_pose_error) for q, qd, q_d, qd_d, qdd_d, _ in states]
     return {'impedance_7dof': (tick, inputs), 'impedance_7dof_checked': (impedance, checked)}
 
 
@@ -350,26 +369,31 @@ def bench_transport(plan):
 
 # -- B4: the world without ROS -------------------------------------------------------------------
 def bench_world(plan):
-    """B4: iiwa World physics steps per second (set_torque, step, state per step)."""
+    """B4: iiwa World physics steps per second (set_torque, step, state per step) on each engine, rounds interleaved;
+    MuJoCo's over PyBullet's."""
     from robot_control.models import for_scenario
-    from sim_bridge.world import World
+    from sim_bridge.engines import make_world
 
-    world = World('iiwa')
+    worlds = {'': make_world('pybullet', 'iiwa'), '_mujoco': make_world('mujoco', 'iiwa')}
     try:
-        q0 = world.state()[0]
+        q0 = worlds[''].state()[0]
         tau = for_scenario('iiwa').g(q0)          # gravity hold: the arm stays where it starts
-        rates = []
+        rates = {key: [] for key in worlds}
         for r in range(plan.world_rounds + 1):
-            t0 = time.perf_counter_ns()
-            for _ in range(plan.world_steps):
-                world.set_torque(tau)
-                world.step()
-                world.state()
-            if r:
-                rates.append(plan.world_steps * 1e9 / (time.perf_counter_ns() - t0))
+            for key, world in worlds.items():
+                t0 = time.perf_counter_ns()
+                for _ in range(plan.world_steps):
+                    world.set_torque(tau)
+                    world.step()
+                    world.state()
+                if r:
+                    rates[key].append(plan.world_steps * 1e9 / (time.perf_counter_ns() - t0))
     finally:
-        world.close()
-    return {'sim_steps_per_s_iiwa': float(np.median(rates))}
+        for world in worlds.values():
+            world.close()
+    out = {f'sim_steps_per_s_iiwa{key}': float(np.median(v)) for key, v in rates.items()}
+    out['sim_steps_mujoco_vs_pybullet'] = out['sim_steps_per_s_iiwa_mujoco'] / out['sim_steps_per_s_iiwa']
+    return out
 
 
 # -- machine, output -----------------------------------------------------------------------------

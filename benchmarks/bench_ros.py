@@ -10,11 +10,14 @@ samples wait in DDS until the bench asks for them every few ms, and nothing is d
 watching costs the loop next to nothing.
 
 B2 lockstep: steps/s = (stamp advance / control period) / (reception time advance) over a
-window, for polar_two_link, iiwa and the bare ping-pong (benchmarks.bench_pingpong) with the
-same messages, QoS and executors, interleaved round by round; medians over the rounds.
+window, for polar_two_link, iiwa, the iiwa on its typical realism profile (config/realism/iiwa_typical.yaml
+stacked on the bridge: friction, rotor inertia, masses, sensor noise, encoder, delay) and the bare ping-pong
+(benchmarks.bench_pingpong) with the same messages, QoS and executors, interleaved round by round; medians
+over the rounds; the cost of the realism as the median of the rounds' typical / ideal iiwa ratios.
 B3 realtime at 1 kHz, per run of REALTIME_RUNS (the polar arm; the iiwa under computed torque, under hybrid
 control pressing on the table and under Cartesian impedance, with the parameters of the demo's
-experiments iiwa_hybrid_line and impedance_push), from the samples of the whole run:
+experiments iiwa_hybrid_line and impedance_push; the iiwa under computed torque on its typical realism
+profile), from the samples of the whole run:
 - latency of period k = reception of command k (at the bench) - publication of state k (bridge);
 - deadline hit: command k received before state k+1 was published (the bridge publishes
   right after the physics step, so this is "before the next step" up to that step's duration);
@@ -24,7 +27,9 @@ The floor of B3: the same figures, counted the same way by the same observer, of
 (benchmarks.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
 physics, no law), run once before each run of REALTIME_RUNS and pooled (missed periods and periods
 summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
-Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance.
+Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance,
+_iiwa_typical (computed torque on the iiwa's typical profile), _iiwa_joint_impedance_typical (joint impedance, its
+integral and friction compensation on that profile: the demo's iiwa_real_move).
 """
 import importlib
 import math
@@ -114,7 +119,11 @@ def node_executor(module):
 
 #: B3's runs: key suffix -> (scenario, the demo experiment whose parameters the two nodes take, or None)
 REALTIME_RUNS = {'polar': ('polar_two_link', None), 'iiwa': ('iiwa', None),
-                 'iiwa_hybrid': ('iiwa', 'iiwa_hybrid_line'), 'iiwa_impedance': ('iiwa', 'impedance_push')}
+                 'iiwa_hybrid': ('iiwa', 'iiwa_hybrid_line'), 'iiwa_impedance': ('iiwa', 'impedance_push'),
+                 'iiwa_typical': ('iiwa', None), 'iiwa_joint_impedance_typical': ('iiwa', 'iiwa_real_move')}
+#: the runs (B2's and B3's keys) whose bridge stacks a realism profile after the scenario's file: key suffix ->
+#: the profile (robot_control.tools.demo.realism_profile); the others simulate the ideal twin
+REALISM = {'iiwa_typical': 'typical', 'iiwa_joint_impedance_typical': 'typical'}
 
 
 def experiment_params(name):
@@ -134,19 +143,23 @@ def experiment_params(name):
 BARE = {'pingpong': ('polar_two_link', 'ping', 'pong'), 'floor': ('iiwa', 'tick', 'echo')}
 
 
-def node_commands(kind, mode, experiment=None):
+def node_commands(kind, mode, experiment=None, realism='ideal'):
     """[(name, argv)] of the two processes of a run: a kind of BARE or a scenario name, with the parameters of
-    demo experiment `experiment` (None: the scenario's file alone). The ends of a bare exchange use the
-    executors of the nodes they stand for."""
+    demo experiment `experiment` (None: the scenario's file alone); the bridge stacks the scenario's profile of
+    `realism` ('ideal': none) after the scenario's file. The ends of a bare exchange use the executors of the
+    nodes they stand for."""
     if kind in BARE:
         scenario, *roles = BARE[kind]
         joints = list(scenarios.get(scenario).joints)
         ends = zip(roles, ('sim_bridge.bridge_node', 'robot_control.ros.controller_node'))
         return [(role, ['-m', 'benchmarks.bench_pingpong', role, '--joints', *joints, '--period',
                         str(PERIOD_NS / NS), '--executor', node_executor(module)]) for role, module in ends]
+    from robot_control.tools import demo
     params = os.path.join(ROOT, 'config', f'{kind}.yaml')
+    profile = demo.realism_profile(kind, realism)
     bridge_extra, controller_extra = experiment_params(experiment)
-    bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params, *bridge_extra,
+    bridge = ['-m', 'sim_bridge.bridge_node', '--ros-args', '--params-file', params,
+              *(['--params-file', str(profile)] if profile is not None else []), *bridge_extra,
               '-p', f'mode:={mode}', '-p', 'physics_step:=0.001', '-p', f'control_period:={PERIOD_NS / NS}',
               '-p', 'real_time_factor:=1.0']
     controller = ['-m', 'robot_control.ros.controller_node', '--ros-args', '--params-file', params, *controller_extra]
@@ -245,12 +258,13 @@ class Session:
     def __exit__(self, *exc):
         self.close()
 
-    def run(self, kind, mode, measure, experiment=None, label=None):
-        """Start the two processes of `kind` (with the parameters of demo experiment `experiment`), wait for
-        the loop to answer, return measure(observer, procs); logs in <logdir>/<label or kind>_<mode>/."""
+    def run(self, kind, mode, measure, experiment=None, label=None, realism='ideal'):
+        """Start the two processes of `kind` (with the parameters of demo experiment `experiment`, the bridge on
+        the profile of `realism`), wait for the loop to answer, return measure(observer, procs); logs in
+        <logdir>/<label or kind>_<mode>/."""
         procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}'))
         try:
-            for name, argv in node_commands(kind, mode, experiment):
+            for name, argv in node_commands(kind, mode, experiment, realism):
                 procs.start(name, argv)
             self.observer.drain()
             self.observer.wait_for('robot_joint_commands', procs)
@@ -292,16 +306,20 @@ def lockstep_window(plan):
     return measure
 
 
+#: B2's runs, each round in this order: label -> kind (node_commands); a label in REALISM runs on its profile
+LOCKSTEP_RUNS = {'pingpong': 'pingpong', 'polar_two_link': 'polar_two_link', 'iiwa': 'iiwa', 'iiwa_typical': 'iiwa'}
+
+
 def bench_lockstep(plan, env, log, logdir):
-    """B2 metrics: ping-pong, polar and iiwa interleaved for plan.dds_rounds rounds."""
-    kinds = ('pingpong', 'polar_two_link', 'iiwa')
-    runs = {k: [] for k in kinds}
+    """B2 metrics: the LOCKSTEP_RUNS interleaved for plan.dds_rounds rounds."""
+    runs = {label: [] for label in LOCKSTEP_RUNS}
     with Session(env, logdir) as session:
         for r in range(plan.dds_rounds):
-            for kind in kinds:
-                runs[kind].append(session.run(kind, 'lockstep', lockstep_window(plan)))
-                rate, cpu = runs[kind][-1]
-                log(f'  round {r + 1}/{plan.dds_rounds} {kind}: {rate:.0f} steps/s, {cpu:.0f} us CPU per step')
+            for label, kind in LOCKSTEP_RUNS.items():
+                runs[label].append(session.run(kind, 'lockstep', lockstep_window(plan), label=label,
+                                               realism=REALISM.get(label, 'ideal')))
+                rate, cpu = runs[label][-1]
+                log(f'  round {r + 1}/{plan.dds_rounds} {label}: {rate:.0f} steps/s, {cpu:.0f} us CPU per step')
         warn_killed(session.killed, log)
     med = {k: np.median(np.array(v), axis=0) for k, v in runs.items()}
     out = {'lockstep_steps_per_s_polar': med['polar_two_link'][0], 'lockstep_steps_per_s_iiwa': med['iiwa'][0],
@@ -312,7 +330,18 @@ def bench_lockstep(plan, env, log, logdir):
     # CPU per step of both processes: what a step costs, whatever else runs on the machine
     out.update({f'lockstep_cpu_us_per_step_{SHORT[s]}': med[s][1] for s in ('polar_two_link', 'iiwa')})
     out['pingpong_cpu_us_per_roundtrip'] = med['pingpong'][1]
+    out.update(realism_cost(runs))
     return {k: float(v) for k, v in out.items()}
+
+
+def realism_cost(runs):
+    """B2's cost of the realism: the iiwa on its typical profile against the ideal iiwa, from `runs` (label ->
+    [(steps/s, CPU us per step)] per round): the medians of both, and the median over the rounds of the ratio
+    typical / ideal of the same round (the two runs follow each other, under the same load)."""
+    typical, ideal = np.array(runs['iiwa_typical']), np.array(runs['iiwa'])
+    return {'lockstep_steps_per_s_iiwa_typical': np.median(typical[:, 0]),
+            'lockstep_cpu_us_per_step_iiwa_typical': np.median(typical[:, 1]),
+            'lockstep_typical_vs_ideal_ratio_iiwa': np.median(typical[:, 0] / ideal[:, 0])}
 
 
 # -- B3 ------------------------------------------------------------------------------------------
@@ -399,7 +428,8 @@ def bench_realtime(plan, env, log, logdir):
         for key, (scenario, experiment) in REALTIME_RUNS.items():
             floors[key] = session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}')
             log('  floor: ' + ', '.join(f'{k} {v:.4g}' for k, v in floors[key].items()))
-            per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key)
+            per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key,
+                                   realism=REALISM.get(key, 'ideal'))
             log(f'  {key}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[key].items()))
         warn_killed(session.killed, log)
     return realtime_results(per, floors)

@@ -4,17 +4,16 @@
 
 The iiwa in sim_bridge.world.World (PyBullet, 1 kHz) carries 2 kg 5 cm out on its flange (PAYLOAD), unknown
 to the controller's model; every joint moves DELTA out and back in MOVE s each, REPETITIONS times. The law
-adaptive_computed_torque (default parameters: lambda = 6 1/s) against computed torque with kp = 36, kv = 12
-(the same error equation) with the payload known and unknown. Prints the RMS tracking error per repetition
+adaptive_computed_torque (default parameters: lambda = 6 1/s, composite adaptation) and the same law with the
+tracking error alone driving the estimate (GRADIENT_ONLY: Slotine and Li's 1987 adaptation with its best
+gain) against computed torque with kp = 36, kv = 12 (the same error equation) with the payload known and unknown. Prints the RMS tracking error per repetition
 and the mass estimate at the end of each; draws the estimate's mass and centre of mass over time and the
 RMS per repetition.
 """
 import argparse
-import io
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
@@ -23,7 +22,7 @@ from robot_control.gains import ServoGains
 from robot_control.models import for_scenario, make_model
 from sim_bridge.world import World
 
-from dev.docs_results import PLOT_COLOURS
+from dev.docs_results import save_figure
 
 DT = 0.001
 PAYLOAD = (2.0, (0.0, 0.0, 0.05))       # kg, m in the tip frame
@@ -31,6 +30,8 @@ MOVE, REPETITIONS, DELTA = 2.0, 3, 0.5  # s per move, out-and-back repetitions, 
 #: computed torque's gains with lambda = 6 1/s: kp = lambda^2, kv = 2 lambda
 GAINS = ServoGains(np.full(7, 36.0), np.full(7, 12.0), np.zeros(7))
 OUT = Path('docs/figures/adaptive/adaptive_mass.png')
+#: the law's parameters with the tracking error alone driving the estimate (no torque prediction)
+GRADIENT_ONLY = {'adaptive_prediction_rate': 0.0, 'adaptation_gain': [5.0, 1.0, 0.01]}
 
 
 def known_model():
@@ -64,7 +65,7 @@ def rms_per_repetition(errors):
     return np.sqrt((errors.reshape(-1, int(round(2 * MOVE / DT)), 7) ** 2).mean(axis=(1, 2)))
 
 
-def figure(estimates, rms, out):
+def figure(estimates, gradient_estimates, rms, out):
     """Mass and centre of mass (z) of the estimate over time; RMS per repetition of the three controllers."""
     import matplotlib
     matplotlib.use('Agg')
@@ -73,26 +74,21 @@ def figure(estimates, rms, out):
     mass = estimates[:, 0]
     com_z = np.where(mass > 1e-6, estimates[:, 3] / np.maximum(mass, 1e-6), 0.0)
     fig, (ax_m, ax_c, ax_r) = plt.subplots(1, 3, figsize=(10, 3), dpi=80)
-    ax_m.plot(t, mass, label='estimate')
+    ax_m.plot(t, gradient_estimates[:, 0], ':', label='tracking error alone')
+    ax_m.plot(t, mass, label='composite (default)')
     ax_m.axhline(PAYLOAD[0], color='k', ls='--', lw=0.8, label='payload')
     ax_m.set(xlabel='t (s)', ylabel='mass (kg)', title='mass estimate')
-    ax_m.legend(loc='lower right')
+    ax_m.legend(loc='lower right', fontsize=7)
     ax_c.plot(t, 100 * com_z)
     ax_c.axhline(100 * PAYLOAD[1][2], color='k', ls='--', lw=0.8)
     ax_c.set(xlabel='t (s)', ylabel='c_z (cm)', title='centre of mass, z', ylim=(0, 10))
     reps = np.arange(1, len(rms['adaptive']) + 1)
-    for name, style in (('adaptive', 'o-'), ('computed torque, payload known', 's--'),
-                        ('computed torque, payload unknown', 'x:')):
+    for name, style in (('adaptive', 'o-'), ('adaptive, tracking error alone', 'd-.'),
+                        ('computed torque, payload known', 's--'), ('computed torque, payload unknown', 'x:')):
         ax_r.semilogy(reps, rms[name], style, label=name)
     ax_r.set(xlabel='repetition', ylabel='RMS error (rad)', title='tracking', xticks=reps)
     ax_r.legend(fontsize=7)
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format='png')
-    plt.close(fig)
-    with Image.open(buffer) as image:      # the docs' plots' palette (dev.docs_results): a fifth of the bytes
-        image.convert('RGB').quantize(colors=PLOT_COLOURS, dither=Image.Dither.NONE).save(out, optimize=True)
+    save_figure(fig, out)
 
 
 def main(argv=None):
@@ -101,7 +97,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     iiwa = for_scenario('iiwa')
     errors, estimates = run_iiwa(ControllerConfig(iiwa, law='adaptive_computed_torque'))
-    rms = {'adaptive': rms_per_repetition(errors),
+    gradient_errors, gradient_estimates = run_iiwa(ControllerConfig(iiwa, law='adaptive_computed_torque',
+                                                                    law_params=GRADIENT_ONLY))
+    rms = {'adaptive': rms_per_repetition(errors), 'adaptive, tracking error alone': rms_per_repetition(gradient_errors),
            'computed torque, payload known': rms_per_repetition(run_iiwa(ControllerConfig(known_model(), gains=GAINS))[0]),
            'computed torque, payload unknown': rms_per_repetition(run_iiwa(ControllerConfig(iiwa, gains=GAINS))[0])}
     for name, values in rms.items():
@@ -111,7 +109,7 @@ def main(argv=None):
     theta = estimates[-1]
     print(f'final estimate: m {theta[0]:.4f} kg, c {np.round(theta[1:4] / theta[0], 4).tolist()} m, '
           f'inertia {np.round(theta[4:], 5).tolist()} kg m^2')
-    figure(estimates, rms, args.out)
+    figure(estimates, gradient_estimates, rms, args.out)
     print(f'wrote {args.out}')
 
 

@@ -10,6 +10,8 @@ Each table lives in one page, between a pair of marker lines, and is rebuilt fro
 - docs/results.md, `<!-- typical:begin/end -->`: the runs on the typical robot (`--realism typical`, their summary's
   `realism`) beside their ideal twins, from the same summaries;
 - docs/results.md, `<!-- gap:begin/end -->`: the iiwa_gap_* experiments (`--experiment iiwa_gap_<variant>`);
+- docs/results.md, `<!-- real-arm:begin/end -->`: the real-arm experiments on the typical robots
+  (`--experiment <arm>_real_<variant> --realism typical`), not in the typical table;
 - docs/results.md, `<!-- plots:begin/end -->`: `docs/figures/<experiment>.png` (`<experiment>_typical.png` for the
   typical robot), copied from out/demo/*/tracking.png;
 - docs/benchmarks.md, `<!-- bench:begin/end -->`: `out/bench/results.md` (`make bench`);
@@ -34,7 +36,8 @@ import sys
 from pathlib import Path
 
 from robot_control.tools import demo_experiments
-from robot_control.tools.demo_experiments import EXPERIMENTS, GAP_EFFECTS, GAP_MOVE, GAP_VARIANTS, REALISM
+from robot_control.tools.demo_experiments import (EXPERIMENTS, GAP_EFFECTS, GAP_MOVE, GAP_VARIANTS, REAL_ARMS,
+                                                  REAL_VARIANTS, REALISM)
 
 BEGIN = '<!-- results:begin -->'
 END = '<!-- results:end -->'
@@ -50,6 +53,10 @@ TYPICAL_BEGIN = '<!-- typical:begin -->'
 TYPICAL_END = '<!-- typical:end -->'
 GAP_BEGIN = '<!-- gap:begin -->'
 GAP_END = '<!-- gap:end -->'
+REAL_ARM_BEGIN = '<!-- real-arm:begin -->'
+REAL_ARM_END = '<!-- real-arm:end -->'
+#: the experiment of each real-arm run: (arm, variant)
+REAL_ARM_EXPERIMENTS = {f'{arm}_real_{variant}': (arm, variant) for arm in REAL_ARMS for variant in REAL_VARIANTS}
 #: the experiment of each iiwa_gap variant
 GAP_EXPERIMENTS = {f'iiwa_gap_{variant}': variant for variant in GAP_VARIANTS}
 #: the page of each table (in the docs directory)
@@ -187,11 +194,13 @@ def table(summaries):
 
 
 def split(summaries):
-    """(ideal runs of the results table, typical runs, iiwa_gap runs) of load_summaries' [(name, summary)]."""
+    """(ideal runs of the results table, typical runs, iiwa_gap runs, real-arm runs on a typical robot) of
+    load_summaries' [(name, summary)]."""
+    real = [(n, s) for n, s in summaries if realism_of(s) != 'ideal' and s.get('experiment') in REAL_ARM_EXPERIMENTS]
     ideal = [(n, s) for n, s in summaries if realism_of(s) == 'ideal' and s.get('experiment') not in GAP_EXPERIMENTS]
-    typical = [(n, s) for n, s in summaries if realism_of(s) != 'ideal']
+    typical = [(n, s) for n, s in summaries if realism_of(s) != 'ideal' and (n, s) not in real]
     gap = [(n, s) for n, s in summaries if realism_of(s) == 'ideal' and s.get('experiment') in GAP_EXPERIMENTS]
-    return ideal, typical, gap
+    return ideal, typical, gap, real
 
 
 TYPICAL_COLUMNS = ('experiment', 'scenario', 'law', 'realism profile', 'RMS error ideal / typical',
@@ -210,7 +219,7 @@ def typical_table(summaries):
              lambda s: per_coordinate(s['force_rms_error'], unit='N') if s.get('force_rms_error') else '-',
              lambda s: number(s['saturated_ticks']))
     for name, s in summaries:
-        if realism_of(s) == 'ideal':
+        if realism_of(s) == 'ideal' or s.get('experiment') in REAL_ARM_EXPERIMENTS:
             continue
         twin = ideal.get(s.get('experiment'))
         profile = f'`{s["realism_profile"]}`' if s.get('realism_profile') else 'none (the ideal robot)'
@@ -228,8 +237,8 @@ STUCK_TOL = 2e-3
 
 
 def short_joint(name):
-    """'j5' of lbr_iiwa_joint_5."""
-    return 'j' + name.rsplit('_', 1)[-1]
+    """'j5' of lbr_iiwa_joint_5 and of panda_joint5."""
+    return 'j' + name.rsplit('_', 1)[-1].removeprefix('joint')
 
 
 def gap_table(summaries):
@@ -253,6 +262,33 @@ def gap_table(summaries):
                  if abs(e - GAP_MOVE) < STUCK_TOL and abs(s['max_error'][j] - GAP_MOVE) < STUCK_TOL]
         lines.append(f'| {variant} | {what[variant]} | {largest(s["final_error"])} | {largest(s["rms_error"])} | '
                      f'{", ".join(stuck) or "none"} | {number(s["saturated_ticks"])} |')
+    return '\n'.join(lines + [''])
+
+
+REAL_ARM_COLUMNS = ('experiment', 'arm', 'law', 'controller', 'RMS error', 'final error', 'figures',
+                    'saturated ticks')
+
+
+def real_arm_table(summaries):
+    """The markdown between the real-arm markers: the real-arm runs on a typical robot among `summaries`, per arm
+    in REAL_VARIANTS order: the largest RMS and final error over the joints (and where), the experiment's own
+    figures (the hold's travel in its last 10 s, the adaptive move's RMS per repetition); their plots are under
+    `plots` (<experiment>_typical)."""
+    runs = {REAL_ARM_EXPERIMENTS[s['experiment']]: s for _, s in summaries
+            if realism_of(s) != 'ideal' and s.get('experiment') in REAL_ARM_EXPERIMENTS}
+    lines = ['', GENERATED.format(source='`out/demo/<arm>_real_*_typical/summary.json`',
+                                  command='`python -m robot_control.demo --experiment <arm>_real_<variant> '
+                                          '--realism typical`'), '',
+             '| ' + ' | '.join(REAL_ARM_COLUMNS) + ' |', '|' + '---|' * len(REAL_ARM_COLUMNS)]
+
+    def largest(values):
+        joint = max(values, key=lambda k: abs(values[k]))
+        return f'{number(abs(values[joint]), "rad")} ({short_joint(joint)})'
+    for arm, variant in ((a, v) for a in REAL_ARMS for v in REAL_VARIANTS if (a, v) in runs):
+        s = runs[arm, variant]
+        lines.append(f'| {s["experiment"]} | {arm} | {s.get("law", "-")} | {REAL_VARIANTS[variant][0]} | '
+                     f'{largest(s["rms_error"])} | {largest(s["final_error"])} | {figures(s.get("figures"))} | '
+                     f'{number(s["saturated_ticks"])} |')
     return '\n'.join(lines + [''])
 
 
@@ -377,6 +413,22 @@ def replace_between_markers(text, body, begin=BEGIN, end=END):
     return text[:start + len(begin)] + '\n' + body.strip('\n') + '\n' + text[stop:]
 
 
+def save_figure(fig, out):
+    """Lay matplotlib figure `fig` out tight and write it to PNG file `out` (its directory made) in the docs' plots'
+    palette (PLOT_COLOURS: a fifth of the bytes); close it."""
+    import io
+
+    import matplotlib.pyplot as plt
+    from PIL import Image
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format='png')
+    plt.close(fig)
+    with Image.open(buffer) as image:
+        image.convert('RGB').quantize(colors=PLOT_COLOURS, dither=Image.Dither.NONE).save(out, optimize=True)
+
+
 def copy_plots(results_dir, figures_dir):
     """Copy each run's `tracking.png` under results_dir to figures_dir/<experiment>.png in PLOT_COLOURS
     colours; returns the experiments copied."""
@@ -453,9 +505,10 @@ def update(docs_dir, results_dir=None, check=False, bench_dir=None, robustness=N
     with `on_partial` given leave that table as it is and call on_partial(the error's text)."""
     pages = Pages(docs_dir)
     summaries = load_summaries(results_dir) if results_dir is not None and Path(results_dir).is_dir() else []
-    ideal, typical, gap = split(summaries)
+    ideal, typical, gap, real = split(summaries)
     for found, body, begin, end in ((ideal, table, BEGIN, END), (typical, typical_table, TYPICAL_BEGIN, TYPICAL_END),
-                                    (gap, gap_table, GAP_BEGIN, GAP_END)):
+                                    (gap, gap_table, GAP_BEGIN, GAP_END), (real, real_arm_table, REAL_ARM_BEGIN,
+                                                                          REAL_ARM_END)):
         if found:
             pages.put(RESULTS_PAGE, body(ideal if body is table else summaries), begin, end)
     if summaries and not check:

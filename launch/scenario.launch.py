@@ -1,6 +1,7 @@
-"""One robot_control loop: the PyBullet bridge and the controller of one scenario, or of your own robot.
+"""One robot_control loop: the simulator bridge and the controller of one scenario, or of your own robot.
 
     ros2 launch robot_control scenario.launch.py scenario:=iiwa namespace:=arm mode:=lockstep
+    ros2 launch robot_control scenario.launch.py scenario:=iiwa engine:=mujoco
     ros2 launch robot_control scenario.launch.py params_file:=my_arm.yaml
 
 Arguments (`ros2 launch robot_control scenario.launch.py --show-args` lists them):
@@ -12,11 +13,12 @@ Arguments (`ros2 launch robot_control scenario.launch.py --show-args` lists them
   mode          the bridge's pacing: realtime (default) | lockstep
   namespace     namespace of both nodes; '' (default) = none
   gui           the bridge's PyBullet GUI, true | false (default; the GUI needs a display)
+  engine        the bridge's physics engine, pybullet (default) | mujoco
   use_sim_time  the controller runs on the bridge's /clock, true (default) | false
 
 Both nodes read the same files in the same order (the launch logs which), whose sections
-`/**/controller` and `/**/sim_bridge` apply in any namespace; the arguments mode, gui and use_sim_time
-override the files. /clock is remapped to the relative name `clock` in both nodes: it stays /clock
+`/**/controller` and `/**/sim_bridge` apply in any namespace; the arguments mode, gui, engine and
+use_sim_time override the files. /clock is remapped to the relative name `clock` in both nodes: it stays /clock
 without a namespace and becomes /<namespace>/clock with one, so several robots with their own
 simulated time can run side by side.
 """
@@ -34,6 +36,8 @@ SCENARIOS = sorted(os.path.splitext(f)[0] for f in os.listdir(CONFIG_DIR) if f.e
 SCENARIO_CHOICES = [''] + SCENARIOS
 DEFAULT_SCENARIO = 'polar_two_link'
 BOOLEAN = ['true', 'false']
+#: the bridge's physics engines (its read-only parameter `engine`; sim_bridge.engines.ENGINES), the default first
+ENGINES = ['pybullet', 'mujoco']
 #: /clock follows the node's namespace (a relative replacement is expanded in the node's namespace)
 CLOCK_REMAP = [('/clock', 'clock')]
 
@@ -62,7 +66,7 @@ def _nodes(context):
     return [
         LogInfo(msg=f'sim_bridge and controller read, in this order (a later file wins): {", ".join(files)}'),
         Node(package=PACKAGE, executable='sim_bridge_node', name='sim_bridge', namespace=namespace,
-             parameters=[*files, {'mode': arg('mode'), 'gui': arg('gui') == 'true'}],
+             parameters=[*files, {'mode': arg('mode'), 'gui': arg('gui') == 'true', 'engine': arg('engine')}],
              remappings=CLOCK_REMAP, output='screen'),
         Node(package=PACKAGE, executable='controller_node', name='controller', namespace=namespace,
              parameters=[*files, {'use_sim_time': arg('use_sim_time') == 'true'}],
@@ -85,6 +89,8 @@ def generate_launch_description():
                               description="namespace of both nodes ('' = none); /clock moves into it"),
         DeclareLaunchArgument('gui', default_value='false', choices=BOOLEAN,
                               description='open the PyBullet GUI (needs a display)'),
+        DeclareLaunchArgument('engine', default_value=ENGINES[0], choices=ENGINES,
+                              description="the bridge's physics engine"),
         DeclareLaunchArgument('use_sim_time', default_value='true', choices=BOOLEAN,
                               description="the controller's clock is the bridge's simulated /clock"),
         OpaqueFunction(function=_nodes),

@@ -180,6 +180,13 @@ def bool_mask(name, value, n):
     return a
 
 
+def read_only(values, dtype=float):
+    """A new read-only numpy array of `values` (dtype float, or e.g. bool), for a frozen configuration."""
+    a = np.array(values, dtype=dtype)
+    a.flags.writeable = False
+    return a
+
+
 def result(name, value):
     """`value` (a 1-D float array) if every entry is finite, else ArgumentError naming `name`: an
     overflow of finite inputs."""

@@ -243,6 +243,7 @@ class BridgeLoop(abc.ABC):
         self._advance(self._substeps)
         self.ticks += 1
         self._publish(in_loop=True)
+        self._driver.prepare()                # off the command's path: the next tick's state terms and noise
         if self._pause_at_ns is not None and self.world.t_ns >= self._pause_at_ns:
             self._pause_at_ns = None
             self.pause(True, f' (pause_at = {self.cfg.pause_at:g} s)')

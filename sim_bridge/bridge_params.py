@@ -233,9 +233,6 @@ def build(values):
             raise ParameterError(name, "needs a tip link to act at: a scenario's robot has one (parameter "
                                        "scenario); a custom URDF robot (scenario '') has none")
     friction = joint_friction.from_values(v, n)
-    if v['engine'] != 'pybullet' and friction.active:
-        raise ParameterError('friction.coulomb', f"joint friction and armature are modelled on the pybullet engine "
-                                                 f"only; engine is {v['engine']!r}")
     sim_params = {k[len(SIM_PARAMS):]: value for k, value in v.items() if k.startswith(SIM_PARAMS)}
     return BridgeConfig(
         scenario=scenario, urdf=urdf, joints=tuple(joints), initial_positions=np.array(v['initial_positions']),

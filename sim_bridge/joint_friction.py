@@ -41,6 +41,7 @@ pressing on the surface; one step late when it changes, e.g. at impact). While t
 brakes alone act.
 """
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -87,12 +88,12 @@ class JointFriction:
             values[key] = v
         return cls(**values)
 
-    @property
+    @cached_property
     def active(self):
         """True when any friction or armature is set (a link-side torque sensor then reads less than the motor)."""
         return bool(self.exact or self.viscous.any())
 
-    @property
+    @cached_property
     def exact(self):
         """True when the per-step path runs (Coulomb friction or armature on some joint)."""
         return bool(self.coulomb.any() or self.armature.any())
@@ -127,6 +128,22 @@ def from_values(values, n):
     return JointFriction.of(n, {key: values[name] for key, name in PARAMETERS.items()})
 
 
+def inertia(friction, mass):
+    """A = M(q) + diag(I_a) (n, n), kg m^2 or kg: the joints' inertia with their rotors (`friction` a JointFriction)."""
+    return mass + np.diag(friction.armature)
+
+
+def step_loss(friction, inertia, qd, r, dt, start=None):
+    """(f (n,), qdd (n,), tau_loss (n,), sets) of one step of the equations above: `friction` a JointFriction,
+    inertia A = M(q) + diag(I_a) (n, n) (`inertia()`), qd (n,) at the step's start, r (n,) = tau + tau_env - b qd
+    - h (+ tau_c), dt s; `start` the last step's active sets or None (coulomb_sets). f the implicit Coulomb
+    torque (coulomb_sets with b = A qd / dt + r), qdd = (qd+ - qd) / dt the step's acceleration, tau_loss =
+    b qd - f + I_a qdd what friction and armature take from the motor torque, sets the solver's active sets."""
+    f, v, sets = coulomb_sets(inertia, inertia @ qd / dt + r, dt, friction.coulomb, start)
+    qdd = (v - qd) / dt
+    return f, qdd, friction.viscous * qd - f + friction.armature * qdd, sets
+
+
 def coulomb_torque(A, b, dt, fc):
     """(f (n,) N m or N, qd+ (n,)): the implicit Coulomb torque of one step and the velocities after it.
 
@@ -140,19 +157,31 @@ def coulomb_torque(A, b, dt, fc):
     friction alone could stop it, A_ii |qd_free,i| / dt <= fc_i, else it slips along qd_free,i. Then a
     stuck joint needing more than fc_i breaks away (slips against its holding torque) and a slipping joint
     whose velocity would reverse sticks: all such joints at once, and the first of them alone (least
-    index, as Murty's pivoting) once a guess repeats; until consistent (about one pass on average on the
-    iiwa), `_coordinate_descent` if that does not end."""
+    index, as Murty's pivoting) once a guess repeats; until consistent (about two passes on average on the
+    iiwa holding still), `_coordinate_descent` if that does not end."""
+    f, v, _ = coulomb_sets(A, b, dt, fc)
+    return f, v
+
+
+def coulomb_sets(A, b, dt, fc, start=None):
+    """(f, qd+, sets): coulomb_torque, its active sets starting from `start` instead of the first guess when given,
+    and the consistent sets it ended with (None after the fallback). sets, start: (stuck (n,) bool, the
+    slipping joints' directions (n,) of -1, 0, 1). With A positive definite the solution is unique: the start
+    changes the passes, not f and qd+. The last step's sets hold on the next while the arm holds still or keeps
+    sliding the same way: one pass, one solve (the stepping World's start)."""
     has = fc > 0.0
-    free = np.linalg.solve(A, b)                       # qd_free / dt
-    if not has.any():
-        return np.zeros(len(fc)), dt * free
-    sign = np.sign(free)
-    stuck = has & (np.abs(free) * np.diag(A) <= fc)
+    if not np.count_nonzero(has):
+        return np.zeros(len(fc)), dt * np.linalg.solve(A, b), None
+    if start is None:
+        free = np.linalg.solve(A, b)                   # qd_free / dt
+        stuck, sign = has & (np.abs(free) * A.diagonal() <= fc), np.sign(free)
+    else:
+        stuck, sign = start
     seen, least_index = set(), False
     for _ in range(4 * len(fc) + 4):
         f, v, wrong = _given(A, b, dt, fc, stuck, sign)
-        if not wrong.any():
-            return f, v
+        if not np.count_nonzero(wrong):                # at once on most steps
+            return f, v, (stuck, sign)
         key = (stuck.tobytes(), sign.tobytes())
         least_index = least_index or key in seen
         seen.add(key)
@@ -160,27 +189,31 @@ def coulomb_torque(A, b, dt, fc):
             wrong[np.argmax(wrong) + 1:] = False
         sign = np.where(stuck & wrong, -np.sign(f), sign)
         stuck = stuck ^ wrong
-    f = _coordinate_descent(dt * np.linalg.inv(A), dt * free, fc)
+    f = _coordinate_descent(dt * np.linalg.inv(A), dt * np.linalg.solve(A, b), fc)
     stuck = has & (np.abs(f) < fc * (1.0 - 1e-9))
     f_exact, v, wrong = _given(A, b, dt, fc, stuck, -np.sign(f))     # its sets, solved exactly
-    return (f_exact, v) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f))
+    return (f_exact, v, None) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f), None)
 
 
 def _given(A, b, dt, fc, stuck, sign):
     """(f, qd+, wrong) of coulomb_torque for the stuck joints `stuck` and the slipping joints' directions
     `sign`; wrong (n,) bool marks the joints whose assumption fails (a stuck joint needing more than
-    fc_i, a slipping one whose velocity would reverse)."""
-    f = np.where(stuck, 0.0, -fc * sign)
-    v = np.zeros(len(fc))
-    slip = np.flatnonzero(~stuck)
-    if len(slip) == len(fc):
+    fc_i, a slipping one whose velocity would reverse). Every joint slipping, every joint stuck: no sub-block
+    is formed (one solve of A, none)."""
+    n, held = len(fc), np.count_nonzero(stuck)
+    f = -fc * sign                                     # the slipping joints' friction (stuck ones: below)
+    if not held:
         v = dt * np.linalg.solve(A, b + f)
-    elif len(slip):
-        v[slip] = dt * np.linalg.solve(A[slip[:, None], slip], (b + f)[slip])
-    if len(slip) < len(fc):
+    else:
+        v = np.zeros(n)
+        if held < n:
+            slip = np.flatnonzero(~stuck)
+            v[slip] = dt * np.linalg.solve(A[slip[:, None], slip], (b + f)[slip])
         f = np.where(stuck, A @ v / dt - b, f)
-    breaks = stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
-    return f, v, breaks | ((fc > 0.0) & ~stuck & (v * sign < 0.0))
+    wrong = (fc > 0.0) & (v * sign < 0.0)              # a slipping joint reversing (a stuck one has v_i = 0)
+    if held:
+        wrong |= stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
+    return f, v, wrong
 
 
 def _coordinate_descent(W, v_free, fc, sweeps=1000, tol=1e-15):

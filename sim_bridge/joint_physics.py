@@ -4,13 +4,13 @@ import numpy as np
 import pybullet as p
 
 from sim_bridge import physics_check
-from sim_bridge.joint_friction import coulomb_torque
+from sim_bridge import joint_friction
 
 
 class JointPhysics:
     """The joint physics of one built PyBullet body: `joints` the controlled joints' PyBullet indices,
     `tip` the tip link index or None, dt the step, s. `set(friction)` puts a JointFriction in force; `torque` is the
-    World's per-step call."""
+    World's per-step call; `prepare`, between steps, forms ahead what the next one needs of the state alone."""
 
     def __init__(self, client, body, joints, tip, dt, friction):
         self._client, self._body, self._joints, self._tip, self.dt = client, body, list(joints), tip, dt
@@ -26,8 +26,9 @@ class JointPhysics:
         """Put `friction` (a JointFriction for these joints) in force from the next step."""
         self.friction = friction
         self.exact = friction.exact
-        self._armature = np.diag(friction.armature)
         self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
+        self._sets = None       # the Coulomb solver's active sets of the last step (coulomb_sets); None: none
+        self._ahead = None      # _state_terms() formed by prepare() for the next step; None: none
         self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
         for j, b in zip(self._joints, friction.viscous.tolist()):
             p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
@@ -37,9 +38,31 @@ class JointPhysics:
         (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
         (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`."""
         if braked:
-            self._last = self.loss = None
+            self._last = self.loss = self._sets = self._ahead = None
             return forces
-        c, body, fr = self._client, self._body, self.friction
+        fr = self.friction
+        terms = self._state_terms() if self._ahead is None else self._ahead
+        self._ahead = None
+        q_all, qd_all, mass, h, qd, damping, constraint, inertia = terms
+        tau = np.array(forces)
+        r = tau - damping - h
+        if cartesian_force is not None:
+            r += self._jacobian(q_all, qd_all).T @ cartesian_force
+        r += constraint
+        f, qdd, self.loss, self._sets = joint_friction.step_loss(fr, inertia, qd, r, self.dt, self._sets)
+        self._last = (mass, qd + self.dt * qdd, constraint)
+        return (tau + f - fr.armature * qdd).tolist()
+
+    def prepare(self):
+        """Form now the next step's _state_terms() (the state does not change until that step): what the step
+        after the next command then need not do. A step, set() or the brakes discard them."""
+        self._ahead = self._state_terms()
+
+    def _state_terms(self):
+        """What a step needs of the state alone: (q, qd of every movable joint (lists), M (n, n), h = C qd + g (n,),
+        qd (n,), the viscous torque b qd (n,), the constraint torque assumed tau_c (n,) or 0, A = M + diag(I_a))
+        of the controlled joints."""
+        c, body = self._client, self._body
         states = p.getJointStates(body, self._movable, physicsClientId=c)
         q_all = [s[0] for s in states]
         qd_all = [s[1] for s in states]
@@ -48,18 +71,8 @@ class JointPhysics:
         qd = np.array(qd_all)
         if self._dof is not None:
             mass, h, qd = mass[self._block], h[self._dof], qd[self._dof]
-        tau = np.array(forces)
-        r = tau - fr.viscous * qd - h
-        if cartesian_force is not None:
-            r += self._jacobian(q_all, qd_all).T @ cartesian_force
         constraint = 0.0 if self._last is None else self._constraint(qd)
-        r += constraint
-        inertia = mass + self._armature
-        f, v = coulomb_torque(inertia, inertia @ qd / self.dt + r, self.dt, fr.coulomb)
-        self._last = (mass, v, constraint)
-        qdd = (v - qd) / self.dt
-        self.loss = fr.viscous * qd - f + fr.armature * qdd
-        return (tau + f - fr.armature * qdd).tolist()
+        return q_all, qd_all, mass, h, qd, self.friction.viscous * qd, constraint, joint_friction.inertia(self.friction, mass)
 
     def _constraint(self, qd):
         """tau_c (n,) N m or N: the joint torque of the constraints PyBullet solved in the last step (surface

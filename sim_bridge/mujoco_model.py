@@ -23,7 +23,7 @@ import xml.etree.ElementTree as ET
 import mujoco
 import numpy as np
 
-from sim_bridge.physics_check import urdf_inertials
+from sim_bridge.world_base import urdf_inertials
 
 #: the threshold of MuJoCo's compiler check on moving bodies (mjMINVAL)
 MINVAL = 1e-15

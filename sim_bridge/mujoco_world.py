@@ -1,9 +1,14 @@
 """The MuJoCo world: the same robot, the same interface as sim_bridge.world.World, another engine.
 
-    M(q) qdd + C(q, qd) qd + g(q) = tau + tau_env,   tau = clip(command, effort limits)
+    (M(q) + diag(I_a)) qdd + C(q, qd) qd + g(q) = tau + tau_env + tau_f,   tau = clip(command, effort limits)
 
-tau_env: the mass-spring's -k x^3 - b xd and the configured disturbance (joint torque, and the
-Cartesian force at the tip frame origin as J(q)^T f via mj_applyFT). Units SI; time kept as integer
+tau_env: the mass-spring's -k x^3 - b xd, the surface's spring at the tip (sim_bridge.mujoco_surface) and the
+configured disturbance (joint torque, and the Cartesian force at the tip frame origin as J(q)^T f via
+mj_applyFT). tau_f and I_a: the joints' friction (viscous, Coulomb with stiction) and armature, the
+equations of sim_bridge.joint_friction solved as on PyBullet (joint_friction.step_loss, with MuJoCo's M and
+C qd + g of the step's state, every other load of the step known exactly), and sent as the joint torque
+tau + f - I_a qdd - b qd (MuJoCo's own frictionloss, armature and damping stay zero: its implicit damping
+and its friction-loss constraint would not be the same equations). Units SI; time kept as integer
 nanoseconds. The robot is the PyBullet world's checked URDF copy (same resolution of scenario, params,
 payload, joints, q0), compiled by sim_bridge.mujoco_model with the URDF's exact inertias; stepped by
 MuJoCo's semi-implicit Euler (as PyBullet's) at dt, loads computed between mj_step1 and mj_step2 (at
@@ -13,7 +18,6 @@ Brakes: the joint torque that stops the joints in one step and pulls them back t
 positions in BRAKE_STEPS steps, qdd_b = -(qd + (q - q_b) / (BRAKE_STEPS dt)) / dt, by inverse dynamics
 (mj_rne) less the environment's loads, each clipped to the joint's effort limit (UNLIMITED_BRAKE
 where the URDF sets none): at most the effort limit, as PyBullet's position motors.
-Contact surfaces are not modelled: a world asked for one is an ArgumentError naming `surface`.
 """
 import tempfile
 
@@ -22,10 +26,11 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.validation import ArgumentError
-from sim_bridge import mujoco_model
+from sim_bridge import mujoco_model, surfaces
 from sim_bridge.disturbance import Disturbance
-from sim_bridge.joint_friction import JointFriction
-from sim_bridge.world import UNLIMITED_BRAKE, _check_travel, _resolve, _scenario, _whole_ns
+from sim_bridge.joint_friction import JointFriction, inertia, step_loss
+from sim_bridge.mujoco_surface import MujocoSurface
+from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, resolve, scenario_of, whole_ns
 
 #: the brake's position time constant in steps (PyBullet's position motor: positionGain 0.1)
 BRAKE_STEPS = 10.0
@@ -42,6 +47,14 @@ def _effort_limits(xml, joints):
     return np.array([limits[name] for name in joints])
 
 
+def _at(index):
+    """`index` (an integer array) as a slice where it is a contiguous ascending run (numpy then indexes by a view,
+    not a copy), else as it is."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
+
+
 def _travel(model, ids):
     """(lower, upper) per joint id as World keeps them: lower > upper where the joint is unlimited."""
     return [tuple(model.jnt_range[j]) if model.jnt_limited[j] else (0.0, -1.0) for j in ids]
@@ -49,26 +62,22 @@ def _travel(model, ids):
 
 class MujocoWorld:
     """A MuJoCo world stepping one robot under a held joint torque: sim_bridge.world.World's
-    arguments (gui must be False; surface may only be False or a scenario without one), properties
-    and methods; `model` and `data` are MuJoCo's."""
+    arguments (gui must be False), properties and methods; `model` and `data` are MuJoCo's."""
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
                  surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None, friction=None):
         if gui:
             raise ArgumentError('gui', 'the MuJoCo world has no viewer')
-        self.scenario = _scenario(scenario)
-        self.dt_ns = _whole_ns(dt)
+        self.scenario = scenario_of(scenario)
+        self.dt_ns = whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
         self._tmp = tempfile.TemporaryDirectory(prefix='sim_bridge_mujoco_')
         try:
-            if surface is not False and surface is not None and (
-                    surface is not True or (self.scenario is not None and self.scenario.surface is not None)):
-                raise ArgumentError('surface', 'the MuJoCo world models no contact surface; set it False')
-            self._spec = _resolve(self.scenario, params, urdf, joints, q0, False, tip, surface_damping,
+            self._spec = resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
                                   payload, self._tmp.name)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
-            self.set_friction(friction)
             self._load()
+            self.set_friction(friction)
             self._build(self._spec.q0)
             self.report = self._spec.warnings + self._physics_report()
         except BaseException:
@@ -90,6 +99,7 @@ class MujocoWorld:
         if self.model.nv != len(spec.joints):
             raise ArgumentError('joints', f'expected single-dof joints (revolute, continuous, prismatic), got {names}')
         self._qadr, self._dadr = mujoco_model.dofs(self.model, spec.joints)
+        self._q_at, self._v_at = _at(self._qadr), _at(self._dadr)      # the same, as slices where they can be
         self._travel = _travel(self.model, [self.model.joint(name).id for name in spec.joints])
         self._limit = _effort_limits(xml, spec.joints)
         self._limit_min = float(np.min(self._limit))
@@ -98,17 +108,28 @@ class MujocoWorld:
         if spec.tip is not None and spec.tip not in bodies:
             raise ArgumentError('tip', f'unknown link {spec.tip!r}; the URDF\'s links are {bodies[1:]}')
         self._tip = self.model.body(spec.tip).id if spec.tip is not None else None
+        self._radius = surfaces.probe_radius(xml, spec.tip) if spec.surface is not None else None
         self.data = mujoco.MjData(self.model)
 
     def _build(self, q0):
         """Start again from q0 at rest: t = 0, zero torque, brakes off."""
-        _check_travel(self._spec.joints, q0, self._travel)
+        check_travel(self._spec.joints, q0, self._travel)
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[self._qadr] = q0
         mujoco.mj_forward(self.model, self.data)
         self.t_ns = 0
         self._tau = np.zeros(self.n)
         self._brake, self._brake_applied = None, np.zeros(self.n)
+        self._loss = None
+        self._sets = None       # the Coulomb solver's active sets of the last step (a start; the solution is unique)
+        self._surface = None if self._spec.surface is None else self._make_surface()
+
+    def _make_surface(self):
+        spec = self._spec
+        normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
+        half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
+        return MujocoSurface(spec.surface, normal, self._radius, self.data.xpos[self._tip].copy(),
+                             spec.surface_damping, half, self._tip)
 
     def _physics_report(self):
         """Lines naming the joints where MuJoCo's M(q0) or g(q0) differ from Pinocchio's on the URDF."""
@@ -131,7 +152,7 @@ class MujocoWorld:
     joint_names = property(lambda self: self._spec.joints, doc='Controlled joint names, command order.')
     urdf = property(lambda self: self._spec.urdf, doc='Path of the checked URDF copy the model was compiled from.')
     gravity = property(lambda self: self._spec.gravity, doc='Gravitational acceleration along world -z, m/s^2.')
-    surface = property(lambda self: None, doc='The surface in the world: never one here.')
+    surface = property(lambda self: self._spec.surface, doc='The surface in the world (scenarios.Surface), or None.')
     tip = property(lambda self: self._spec.tip, doc='Tip link name, or None.')
     t = property(lambda self: self.t_ns * 1e-9, doc='Simulation time, s (t_ns * 1e-9).')
     braked = property(lambda self: self._brake is not None, doc='True while the brakes hold the arm.')
@@ -176,18 +197,14 @@ class MujocoWorld:
         self._tau = tau
 
     def set_friction(self, friction):
-        """The joints' friction and armature (World's `friction` argument): only all zero on this engine, where
-        they are not modelled yet; ArgumentError naming friction.coulomb otherwise."""
-        friction = JointFriction.of(self.n, friction)
-        if friction.active:
-            raise ArgumentError('friction.coulomb', 'joint friction and armature are modelled on the pybullet '
-                                                    'engine only; set friction.*, armature to zeros or engine '
-                                                    'to pybullet')
-        self.friction = friction
+        """Replace the joints' friction and armature (World's `friction` argument), from the next step."""
+        self.friction = JointFriction.of(self.n, friction)
+        self._friction_active, self._loss, self._sets = self.friction.active, None, None
 
     def joint_friction_torque(self):
-        """tau_loss (n,), N m or N: zeros (no friction or armature on this engine)."""
-        return np.zeros(self.n)
+        """tau_loss = b qd - f + I_a qdd (n,), N m or N, of the last step (sim_bridge.joint_friction): zeros
+        without friction and armature, before a step, or while braked."""
+        return np.zeros(self.n) if self._loss is None or self._brake is not None else self._loss.copy()
 
     def set_disturbance(self, joint_torque=None, cartesian_force=None):
         """Replace the disturbance: joint_torque (n,) N m or N, cartesian_force (3,) N in world axes at
@@ -200,13 +217,17 @@ class MujocoWorld:
             self._brake, self._brake_applied = (self.state()[0] if on else None), np.zeros(self.n)
 
     # -- stepping ------------------------------------------------------------------------------
+    def prepare(self):
+        """Nothing to form ahead of a step (World.prepare's counterpart: MuJoCo's joint physics is its own)."""
+
     def step(self, k=1):
         """Advance k physics steps of dt with the held torque."""
         if type(k) is not int and (isinstance(k, bool) or not isinstance(k, np.integer)) or k < 1:
             raise ArgumentError('k', f'expected a positive integer number of steps, got {k!r}')
         m, d, dist = self.model, self.data, self._disturbance
-        if self._brake is None and self._spec.spring is None and not (dist.has_joint_torque or dist.has_force):
-            d.qfrc_applied[self._dadr] = self._tau   # every dof is a controlled joint's (the others are fixed)
+        if self._brake is None and self._spec.spring is None and self._surface is None and \
+                not (self._friction_active or dist.has_joint_torque or dist.has_force):
+            d.qfrc_applied[self._v_at] = self._tau   # every dof is a controlled joint's (the others are fixed)
             for _ in range(int(k)):                  # a load that does not depend on the state: one call a step
                 mujoco.mj_step(m, d)
                 self.t_ns += self.dt_ns
@@ -214,15 +235,13 @@ class MujocoWorld:
         for _ in range(int(k)):
             mujoco.mj_step1(m, d)
             d.qfrc_applied[:] = 0.0
-            d.qfrc_applied[self._dadr] = self._environment()
+            d.qfrc_applied[self._v_at] = self._environment()
             if self._tip is not None and self._disturbance.has_force:
                 mujoco.mj_applyFT(m, d, self._disturbance.cartesian_force, np.zeros(3), d.xpos[self._tip],
                                   self._tip, d.qfrc_applied)
-            if self._brake is None:
-                d.qfrc_applied[self._dadr] += self._tau
-            else:
-                self._brake_applied = self._brake_torque()
-                d.qfrc_applied[self._dadr] += self._brake_applied
+            if self._surface is not None:
+                self._surface.apply(m, d, d.qfrc_applied)
+            d.qfrc_applied[self._v_at] += self._drive()
             mujoco.mj_step2(m, d)
             self.t_ns += self.dt_ns
 
@@ -233,6 +252,24 @@ class MujocoWorld:
             x, xd = self.data.qpos[self._qadr[0]], self.data.qvel[self._dadr[0]]
             tau[0] -= self._spec.spring[0] * x ** 3 + self._spec.spring[1] * xd
         return tau
+
+    def _drive(self):
+        """The joint torque of the step (n,) given the loads already in qfrc_applied: the brake's while braked,
+        else the held torque with the joints' friction and armature (sim_bridge.joint_friction)."""
+        if self._brake is not None:
+            self._brake_applied = self._brake_torque()
+            return self._brake_applied
+        if not self._friction_active:
+            return self._tau
+        fr, d = self.friction, self.data
+        qd = d.qvel[self._v_at]
+        if not fr.exact:                        # viscous alone: -b qd, no solve
+            self._loss = fr.viscous * qd
+            return self._tau - self._loss
+        mass = mujoco_model.mass_matrix(self.model, d)[np.ix_(self._dadr, self._dadr)]
+        r = self._tau + d.qfrc_applied[self._v_at] - fr.viscous * qd - d.qfrc_bias[self._v_at]
+        f, qdd, self._loss, self._sets = step_loss(fr, inertia(fr, mass), qd, r, self.dt, self._sets)
+        return self._tau + f - fr.armature * qdd - fr.viscous * qd
 
     def _brake_torque(self):
         """The brake's joint torque (n,) at the step's state, given the loads already in qfrc_applied."""
@@ -253,12 +290,12 @@ class MujocoWorld:
 
     def state_values(self):
         """state() as three tuples of n floats."""
-        return (tuple(self.data.qpos[self._qadr].tolist()), tuple(self.data.qvel[self._dadr].tolist()),
+        return (tuple(self.data.qpos[self._q_at].tolist()), tuple(self.data.qvel[self._v_at].tolist()),
                 tuple(self._applied().tolist()))
 
     def state_into(self, q_out, qd_out, tau_out):
         """state() written into three float64 (n,) arrays; returns them."""
-        q_out[:], qd_out[:], tau_out[:] = self.data.qpos[self._qadr], self.data.qvel[self._dadr], self._applied()
+        q_out[:], qd_out[:], tau_out[:] = self.data.qpos[self._q_at], self.data.qvel[self._v_at], self._applied()
         return q_out, qd_out, tau_out
 
     def tip_position(self):
@@ -269,5 +306,9 @@ class MujocoWorld:
         return self.data.xpos[self._tip].copy()
 
     def contact_wrench(self):
-        """(force (3,) N, torque (3,) N m) on the surface: zeros, there is none."""
-        return np.zeros(3), np.zeros(3)
+        """(force (3,) N, torque (3,) N m) exerted by the robot on the surface in the last step, world axes,
+        torque about the world origin; zeros without a surface or contact."""
+        if self._surface is None:
+            return np.zeros(3), np.zeros(3)
+        force, torque = self._surface.wrench
+        return force.copy(), torque.copy()

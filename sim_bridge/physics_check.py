@@ -17,38 +17,11 @@ import pybullet as p
 
 from robot_control.models.urdf_model import UrdfModel
 from robot_control.validation import ArgumentError
+from sim_bridge.world_base import in_link_axes, urdf_inertials
 
 #: tolerances of the comparison: PyBullet diagonalises each inertia tensor (Jacobi iterations), so
 #: equal physics agree to round-off and that (xArm7: M within 3e-11 kg m^2, g within 2e-15 N m)
 RTOL, ATOL = 1e-6, 1e-9
-
-
-def _floats(element, attribute, default):
-    text = element.get(attribute) if element is not None else None
-    return np.array([float(v) for v in text.split()]) if text else np.array(default, dtype=float)
-
-
-def _in_link_axes(rotation, inertia):
-    """R I R^T: inertia (3, 3) about the com in the inertial frame's axes, in the link's axes (R: (3, 3))."""
-    return rotation @ inertia @ rotation.T
-
-
-def urdf_inertials(xml):
-    """{link: (mass kg, com (3,) m, inertia (3, 3) kg m^2 about the com in link axes)} of URDF text
-    `xml` (numbers checked by robot_control.urdf.checks.check); a link without <inertial>: zeros."""
-    out = {}
-    for link in ET.fromstring(xml.lstrip()).findall('link'):
-        inertial = link.find('inertial')
-        if inertial is None:
-            out[link.get('name')] = (0.0, np.zeros(3), np.zeros((3, 3)))
-            continue
-        origin, inertia = inertial.find('origin'), inertial.find('inertia')
-        rotation = pin.rpy.rpyToMatrix(*_floats(origin, 'rpy', (0.0, 0.0, 0.0)))
-        xx, xy, xz, yy, yz, zz = (_floats(inertia, k, (0.0,))[0] for k in ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz'))
-        tensor = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-        out[link.get('name')] = (float(_floats(inertial.find('mass'), 'value', (0.0,))[0]),
-                                 _floats(origin, 'xyz', (0.0, 0.0, 0.0)), _in_link_axes(rotation, tensor))
-    return out
 
 
 def pybullet_inertials(client, body):
@@ -59,7 +32,7 @@ def pybullet_inertials(client, body):
         name = p.getJointInfo(body, j, physicsClientId=client)[12].decode()
         mass, _, diagonal, com, orientation = p.getDynamicsInfo(body, j, physicsClientId=client)[:5]
         rotation = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
-        out[name] = (mass, np.array(com), _in_link_axes(rotation, np.diag(diagonal)))
+        out[name] = (mass, np.array(com), in_link_axes(rotation, np.diag(diagonal)))
     return out
 
 

@@ -145,10 +145,25 @@ def gaussian(rng, std):
     return std * rng.standard_normal(std.shape)
 
 
+class Encoder:
+    """The encoders of resolution r (n,) >= 0, rad or m per count: `counts(x)`; `on` (n,) bool where r > 0,
+    `every` when r > 0 for every joint. What does not change from tick to tick is formed once."""
+
+    def __init__(self, resolution):
+        self.on = resolution > 0.0
+        self.every = bool(self.on.all())
+        self._r = np.where(self.on, resolution, 1.0)
+
+    def counts(self, x):
+        """Q_r(x) = r round(x / r) where r > 0, x where r = 0 (x (n,), rad or m): whole counts as positions
+        (round half to even)."""
+        q = self._r * np.rint(x / self._r)
+        return q if self.every else np.where(self.on, q, x)
+
+
 def encoder_counts(x, resolution):
-    """Q_r(x) = r round(x / r) where r > 0, x where r = 0 (x, r (n,), rad or m): whole counts as positions."""
-    r = np.where(resolution > 0.0, resolution, 1.0)
-    return np.where(resolution > 0.0, r * np.round(x / r), x)
+    """Encoder(resolution).counts(x): x (n,) as whole counts of resolution (n,), rad or m."""
+    return Encoder(resolution).counts(x)
 
 
 def count_velocity(q, q_prev, period):
@@ -172,9 +187,9 @@ class Sensors:
         self._period = control_period_ns * 1e-9
         self._loss = loss
         m = sensor_model
-        self._noisy = [bool(np.any(std)) for std in (m.position_std, m.velocity_std, m.effort_std, m.wrench_std)]
-        self._encoded = m.encoder_resolution > 0.0
-        self._counts = bool(np.any(self._encoded))
+        self._stds = (m.position_std, m.velocity_std, m.effort_std, m.wrench_std)      # in the order of STREAMS
+        self._noisy = [bool(np.any(std)) for std in self._stds]
+        self._encoder = Encoder(m.encoder_resolution) if np.any(m.encoder_resolution) else None
         self._wrench = m.wrench_modelled
         self._line = collections.deque(maxlen=m.measurement_ticks + 1)
         self.restart()
@@ -184,35 +199,48 @@ class Sensors:
         seeds = np.random.SeedSequence(self._m.seed).spawn(len(STREAMS))
         self._rng = [np.random.default_rng(s) for s in seeds]
         self._line.clear()
-        self._q_prev = None
+        self._q_prev = self._ahead = None
         self.measure()
+
+    def prepare(self):
+        """Draw the next measurement's noise now, between ticks (each stream still draws once per measurement:
+        the same values), so that the measurement after the next step does less."""
+        if self._ahead is None:
+            self._ahead = self._noise()
+
+    def _noise(self):
+        """The noise of one measurement: n_x (gaussian) of each stream of STREAMS, None where its std is zero."""
+        return [gaussian(rng, std) if noisy else None for rng, std, noisy in zip(self._rng, self._stds, self._noisy)]
 
     def measure(self):
         """Measure the World now (after a tick) into the delay line; the reading becomes the line's oldest."""
-        m, rng, noisy = self._m, self._rng, self._noisy
+        noise = self._noise() if self._ahead is None else self._ahead
+        self._ahead = None
         q, qd, tau = (np.array(v) for v in self._world.state_values())
-        if noisy[0]:
-            q = q + gaussian(rng[0], m.position_std)
-        if self._counts:
-            q = encoder_counts(q, m.encoder_resolution)
+        if noise[0] is not None:
+            q = q + noise[0]
+        encoder = self._encoder
+        if encoder is not None:
+            q = encoder.counts(q)
             if self._q_prev is not None:
-                qd = np.where(self._encoded, count_velocity(q, self._q_prev, self._period), qd)
+                counted = count_velocity(q, self._q_prev, self._period)
+                qd = counted if encoder.every else np.where(encoder.on, counted, qd)
             self._q_prev = q
-        if noisy[1]:
-            qd = qd + gaussian(rng[1], m.velocity_std)
+        if noise[1] is not None:
+            qd = qd + noise[1]
         if self._loss is not None:
             tau = link_torque(tau, self._loss())
-        if noisy[2]:
-            tau = tau + gaussian(rng[2], m.effort_std)
-        wrench = self._measure_wrench() if self._wrench else None
+        if noise[2] is not None:
+            tau = tau + noise[2]
+        wrench = self._measure_wrench(noise[3]) if self._wrench else None
         self._line.append((self._world.t_ns, q.tolist(), qd.tolist(), tau.tolist(), wrench))
         self.t_ns, self._q, self._qd, self._tau, self._w = self._line[0]
 
-    def _measure_wrench(self):
-        """(force (3,) N, torque (3,) N m) = the World's contact wrench + bias + noise."""
+    def _measure_wrench(self, noise):
+        """(force (3,) N, torque (3,) N m) = the World's contact wrench + bias + noise (6,) (None: none)."""
         w = np.concatenate(self._world.contact_wrench()) + self._m.wrench_bias
-        if self._noisy[3]:
-            w = w + gaussian(self._rng[3], self._m.wrench_std)
+        if noise is not None:
+            w = w + noise
         return w[:3], w[3:]
 
     def state_values(self):
@@ -265,7 +293,8 @@ class Driver:
     (the World itself when nothing is modelled), `hold(values)` a valid command, `release(values)` the
     brakes released by a command, `engage()` the brakes engaged, `step(k)` one control tick of k physics
     steps (the actuation line moves, then physics, then the measurement), `restart()` after the World was
-    (re)built, `warm_up_ticks` the ticks the loop runs with the brakes engaged before the first state."""
+    (re)built, `warm_up_ticks` the ticks the loop runs with the brakes engaged before the first state, `prepare()`
+    between ticks."""
 
     def __init__(self, world, sensor_model, control_period_ns):
         self._world = world
@@ -278,6 +307,13 @@ class Driver:
         self.warm_up_ticks = sensor_model.measurement_ticks
         self.hold = world.hold_torque if self._line is None else self._line.command
         self.step = world.step if self._sensors is None and self._line is None else self._step
+
+    def prepare(self):
+        """Between ticks, once a state is published: what the next tick needs that no command changes, formed
+        ahead (World.prepare, Sensors.prepare). The same results."""
+        self._world.prepare()
+        if self._sensors is not None:
+            self._sensors.prepare()
 
     def _step(self, k):
         if self._line is not None:

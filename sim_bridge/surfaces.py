@@ -1,20 +1,18 @@
-"""Elastic surfaces for the PyBullet world: a static box the robot's tip presses on.
+"""Elastic surfaces of the simulated worlds, engine-free: a static box the robot's tip presses on.
 
 The lecture's environment is a spring, f = k_e (x_N - x_e), with x_N the task coordinate of
-the tip along the surface normal. It is realised with PyBullet's own soft contact: the box gets
-changeDynamics(contactStiffness=k_e, contactDamping=b_e, lateralFriction=0) and the tip link
-carries a single collision sphere of radius r centred on the tip frame origin (the closed-form
-URDFs already have one; for other URDFs the tip's collision shapes are replaced by it). The box
-face sits r beyond x_e, so contact begins exactly when the tip frame reaches x_e. With
-contactSlop = 0 the steady-state contact force is k_e times the penetration to solver
-precision. Every robot-surface contact point counts in the wrench.
+the tip along the surface normal. The tip link carries a single collision sphere of radius r
+centred on the tip frame origin (the closed-form URDFs already have one; for other URDFs the tip's
+collision shapes are replaced by it, probe_urdf). The box face sits r beyond x_e (box), so contact
+begins exactly when the tip frame reaches x_e. Each engine realises the spring its way:
+sim_bridge.pybullet_surface with PyBullet's soft contact, sim_bridge.mujoco_world with
+spring_force applied at the tip.
 """
 import os
 import tempfile
 import xml.etree.ElementTree as ET
 
 import numpy as np
-import pybullet as p
 
 from robot_control import urdf as urdf_files
 from robot_control import validation
@@ -80,53 +78,38 @@ def probe_urdf(path, tip, out_dir, radius=PROBE_RADIUS):
     return out
 
 
-def tip_radius(client, body, tip_link):
-    """Radius (m) of the tip link's single collision sphere, or ValueError."""
-    shapes = p.getCollisionShapeData(body, tip_link, physicsClientId=client)
-    if len(shapes) != 1 or shapes[0][2] != p.GEOM_SPHERE:
+def box(surface, normal, radius, tip_start, half_width):
+    """(centre (3,) m, half extents (3,) m) of the surface's box, world axes: its face r = `radius` beyond x_e
+    along `normal` (unit, world), HALF_THICKNESS deep, `half_width` wide laterally around the tip's start
+    position `tip_start` (3,) m."""
+    normal = np.asarray(normal, dtype=float)
+    face = surface.x_e + surface.sign * radius           # along `normal`, m
+    centre = np.asarray(tip_start, dtype=float).copy()
+    centre += (face + surface.sign * HALF_THICKNESS - normal @ centre) * normal
+    return centre, np.full(3, half_width) * (1.0 - normal) + HALF_THICKNESS * normal
+
+
+def spring_force(k_e, b_e, depth, depth_rate):
+    """The surface's normal force on the tip, N (>= 0: a surface pushes, never pulls):
+
+        f = max(k_e d + b_e dd, 0) where d > 0, else 0
+
+    k_e N/m, b_e N s/m, d = sign (x_N - x_e) the penetration, m, dd its rate, m/s."""
+    if depth <= 0.0:
+        return 0.0
+    return max(k_e * depth + b_e * depth_rate, 0.0)
+
+
+def probe_radius(xml, tip):
+    """Radius (m) of link `tip`'s single collision sphere in URDF text `xml`, or ArgumentError naming surface
+    (none, several, or one off the link origin)."""
+    links = [ln for ln in ET.fromstring(xml.lstrip()).findall('link') if ln.get('name') == tip]
+    shapes = links[0].findall('collision') if links else []
+    sphere = shapes[0].find('geometry/sphere') if len(shapes) == 1 else None
+    if sphere is None:
         raise ArgumentError('surface', 'the tip link must collide through one sphere at its origin')
-    # PyBullet reports the shape's frame relative to the link's inertial frame
-    com, orn = p.getDynamicsInfo(body, tip_link, physicsClientId=client)[3:5]
-    centre, _ = p.multiplyTransforms(com, orn, shapes[0][5], shapes[0][6])
-    if np.linalg.norm(centre) > 1e-9:
-        raise ArgumentError('surface', 'the tip link\'s collision sphere is at {centre}, not at the link origin')
-    return float(shapes[0][3][0])
-
-
-class Wall:
-    """A static box with spring-damper contact, face normal to `normal` (world, unit).
-
-    surface: the lecture's Surface (x_e in m along `normal`, k_e in N/m, sign +1 when the tip
-    presses towards +normal). damping: contact damping b_e, N s/m (0: the lecture's pure spring).
-    tip_start: the tip's world position at the start, m, (3,) (centres the box laterally).
-    """
-
-    def __init__(self, client, surface, normal, radius, tip_start, damping=0.0, half_width=HALF_WIDTH_WALL):
-        self.client, self.surface = client, surface
-        self.normal = np.asarray(normal, dtype=float)
-        damping = validation.scalar('surface_damping', damping, nonnegative=True)
-        face = surface.x_e + surface.sign * radius           # along `normal`, m
-        centre = np.asarray(tip_start, dtype=float).copy()
-        centre += (face + surface.sign * HALF_THICKNESS - self.normal @ centre) * self.normal
-        half = np.full(3, half_width) * (1.0 - self.normal) + HALF_THICKNESS * self.normal
-        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half.tolist(), physicsClientId=client)
-        visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half.tolist(), rgbaColor=[0.5, 0.6, 0.5, 0.6],
-                                     physicsClientId=client)
-        self.body = p.createMultiBody(0.0, shape, visual, basePosition=centre.tolist(), physicsClientId=client)
-        p.changeDynamics(self.body, -1, contactStiffness=surface.k_e, contactDamping=damping,
-                         lateralFriction=0.0, spinningFriction=0.0, rollingFriction=0.0, restitution=0.0,
-                         physicsClientId=client)
-
-    def wrench(self, robot):
-        """(force (3,) N, torque (3,) N m): exerted by the robot on the surface, world axes,
-        torque about the world origin; zeros without contact. Valid after a step."""
-        fx = fy = fz = mx = my = mz = 0.0
-        for cp in p.getContactPoints(bodyA=robot, bodyB=self.body, physicsClientId=self.client):
-            # f = -(f_n n + f_1 d_1 + f_2 d_2), n = contactNormalOnB (from the surface to the robot: the
-            # robot pushes along -n), d_1, d_2 the friction directions; torque r x f, r = positionOnB
-            (nx, ny, nz), _distance, fn, f1, (ax, ay, az), f2, (bx, by, bz) = cp[7:14]
-            x, y, z = -(fn * nx + f1 * ax + f2 * bx), -(fn * ny + f1 * ay + f2 * by), -(fn * nz + f1 * az + f2 * bz)
-            rx, ry, rz = cp[6]
-            fx, fy, fz = fx + x, fy + y, fz + z
-            mx, my, mz = mx + ry * z - rz * y, my + rz * x - rx * z, mz + rx * y - ry * x
-        return np.array([fx, fy, fz]), np.array([mx, my, mz])
+    origin = shapes[0].find('origin')
+    xyz = [float(v) for v in origin.get('xyz', '0 0 0').split()] if origin is not None else [0.0, 0.0, 0.0]
+    if np.linalg.norm(xyz) > 1e-9:
+        raise ArgumentError('surface', f'the tip link\'s collision sphere is at {xyz}, not at the link origin')
+    return float(sphere.get('radius'))

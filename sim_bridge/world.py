@@ -17,166 +17,19 @@ damping zeroed (joint damping then carries friction.viscous alone); the torque i
 every stepSimulation (PyBullet clears applied torques after each step); fixed step dt without substeps.
 """
 import math
-import os
 import shutil
 import tempfile
-from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
 
 from robot_control.validation import ArgumentError
-from robot_control import scenarios, units, validation
-from robot_control import urdf as urdf_files
-from robot_control.urdf import checks
-from robot_control.models import make_model, urdf_gen
-from sim_bridge import physics_check, surfaces, true_robot
+from robot_control import validation
+from sim_bridge import physics_check, pybullet_surface, surfaces
 from sim_bridge.disturbance import Disturbance
 from sim_bridge.joint_friction import JointFriction
 from sim_bridge.joint_physics import JointPhysics
-
-#: world gravity when neither the scenario nor `params` sets one, m/s^2
-#: brake holding force where the URDF sets no effort limit, N m or N
-UNLIMITED_BRAKE = 1.0e6
-
-
-@dataclass
-class _Spec:
-    """Everything needed to (re)build the world: resolved once, used by every build."""
-
-    urdf: str                 # file PyBullet loads
-    joints: tuple
-    q0: np.ndarray
-    gravity: float            # m/s^2, along world -z
-    tip: str                  # link name or None
-    closed_form: bool
-    task_axes: tuple
-    surface: object           # scenarios.Surface or None
-    surface_damping: float    # N s/m
-    spring: tuple             # (k N/m^3, b N s/m) of mass_spring_cubic, or None
-    warnings: list            # robot_control.urdf.checks.check's warnings about the URDF
-
-
-def _scenario(scenario):
-    if scenario is None or isinstance(scenario, scenarios.Scenario):
-        return scenario
-    if isinstance(scenario, str):
-        return scenarios.get(scenario)
-    raise ArgumentError('scenario', f'expected a name, a Scenario or None, got {scenario!r}')
-
-
-def _truth(sc, params):
-    """(physical parameters, closed-form model or None, gravity m/s^2) of the simulated robot."""
-    if params is not None and not hasattr(params, 'keys'):
-        raise ArgumentError('params', f'expected a mapping of physical parameters, got {params!r}')
-    params = dict(params or {})
-    base = dict(sc.params) if sc is not None else {}
-    truth, model = {**base, **params}, None
-    if sc is None or sc.model == 'urdf':
-        unknown = sorted(set(params) - {'gravity', *true_robot.KEYS})
-        if unknown:
-            raise ArgumentError('params', f'unknown {unknown} for a URDF robot; expected some of '
-                                          f"{['gravity', *true_robot.KEYS]}")
-    else:
-        try:
-            model = make_model(sc.model, **truth)
-        except ValueError as exc:
-            raise ArgumentError('params', f'{exc}') from None
-    gravity = validation.scalar('params.gravity', truth.get('gravity', units.GRAVITY), nonnegative=True)
-    return truth, model, gravity
-
-
-def _surface(sc, surface):
-    if surface is True:
-        return sc.surface if sc is not None else None
-    if surface is False or surface is None:
-        return None
-    return surfaces.check_surface(surface)
-
-
-def _simulated_copy(path, tmpdir):
-    """(copy of the URDF at `path` as PyBullet must load it, the URDF's warnings): checked
-    (robot_control.urdf.checks.check), its meshes found (absolute file:// URIs; ArgumentError naming
-    `urdf` for one found nowhere) and an explicit zero <inertial> for every link without one, so
-    that PyBullet simulates such a link massless, as the URDF (and the controller's model) means."""
-    xml, where = urdf_files.read(path)
-    warnings = checks.check(xml, where)
-    xml = urdf_files.with_absolute_meshes(xml, os.path.dirname(os.path.abspath(path)))
-    out = os.path.join(tmpdir, 'simulated.urdf')
-    with open(out, 'w', encoding='utf-8') as f:
-        f.write(checks.with_zero_inertials(xml))
-    return out, warnings
-
-
-def _with_payload(path, tip, payload, tmpdir):
-    """A copy of the URDF at `path` whose tip carries the payload (robot_control.urdf.with_payload)."""
-    if tip is None:
-        raise ArgumentError('payload', 'needs a tip link (tip=...)')
-    xml, _ = urdf_files.read(path)
-    xml = urdf_files.with_absolute_meshes(xml, os.path.dirname(os.path.abspath(path)))
-    out = os.path.join(tmpdir, 'with_payload.urdf')
-    with open(out, 'w', encoding='utf-8') as f:
-        f.write(urdf_files.with_payload(xml, tip, *payload))
-    return out
-
-
-def _changed_links(path, joints, changes, tmpdir):
-    """The URDF at `path` with its links changed (sim_bridge.true_robot), or `path` when `changes` is None."""
-    if changes is None:
-        return path
-    with open(path, encoding='utf-8') as f:
-        xml = true_robot.with_changed_links(f.read(), joints, *changes)
-    out = os.path.join(tmpdir, 'changed_links.urdf')
-    with open(out, 'w', encoding='utf-8') as f:
-        f.write(xml)
-    return out
-
-
-def _resolve(sc, params, urdf, joints, q0, surface, tip, surface_damping, payload, tmpdir):
-    """The build specification; every check that can fail before PyBullet runs."""
-    truth, model, gravity = _truth(sc, params)
-    closed_form = model is not None
-    if urdf is not None:
-        path = urdf_files.resolve(urdf)
-    elif sc is None:
-        raise ArgumentError('urdf', 'required when scenario is None')
-    elif closed_form and truth != dict(sc.params):
-        path = urdf_gen.write_urdf(os.path.join(tmpdir, f'{sc.model}.urdf'), sc.model, **truth)
-    else:
-        path = urdf_files.resolve(sc.urdf or sc.model)
-    path, warnings = _simulated_copy(path, tmpdir)
-    if joints is None and sc is None:
-        raise ArgumentError('joints', 'required when scenario is None')
-    joints = validation.names('joints', sc.joints if joints is None else joints)
-    if not joints:
-        raise ArgumentError('joints', 'expected at least one joint')
-    if not closed_form:
-        path = _changed_links(path, joints, true_robot.changes(truth, len(joints)), tmpdir)
-    start = q0 if q0 is not None else (sc.q0 if sc is not None else np.zeros(len(joints)))
-    q0 = validation.vector('q0', start, len(joints))
-    if tip is None and sc is not None:
-        tip = sc.tip or ('tip' if closed_form else None)   # urdf_gen names the closed forms' end link 'tip'
-    task_axes = model.task_axes if closed_form else ('x', 'y', 'z')
-    wall = _surface(sc, surface)
-    if wall is not None and tip is None:
-        raise ArgumentError('surface', 'needs a tip link (tip=...)')
-    if wall is not None and not closed_form:
-        path = surfaces.probe_urdf(path, tip, tmpdir)
-    if payload is not None:
-        path = _with_payload(path, tip, payload, tmpdir)
-    spring = (model.k, model.b) if closed_form and sc.model == 'mass_spring_cubic' else None
-    damping = validation.scalar('surface_damping', surface_damping, nonnegative=True)
-    return _Spec(path, joints, q0, gravity, tip, closed_form, task_axes, wall, damping, spring, warnings)
-
-
-def _whole_ns(dt):
-    """The physics step dt (s) as whole nanoseconds; ArgumentError naming dt otherwise."""
-    dt = validation.scalar('dt', dt, positive=True)
-    dt_ns = round(dt * 1e9)
-    if dt_ns < 1 or abs(dt_ns - dt * 1e9) > 1e-6 * dt * 1e9:
-        raise ArgumentError('dt', f'expected a whole number of nanoseconds, got {dt} s')
-    return dt_ns
-
+from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, resolve, scenario_of, whole_ns
 
 def _zero_damping(client, body):
     """No hidden damping: PyBullet's default link and joint damping would act on every joint."""
@@ -191,14 +44,6 @@ def _hold(client, body, joints):
         k = len(joints)
         p.setJointMotorControlArray(body, joints, p.POSITION_CONTROL, targetPositions=[0.0] * k,
                                     forces=[UNLIMITED_BRAKE] * k, physicsClientId=client)
-
-
-def _check_travel(joints, q0, travel):
-    """q0 inside the URDF position limits `travel` ((lower, upper) per joint; PyBullet enforces them
-    where lower <= upper), or ArgumentError naming q0."""
-    for name, q, (lower, upper) in zip(joints, q0, travel):
-        if lower <= upper and not lower <= q <= upper:
-            raise ArgumentError('q0', f'{name} = {q} is outside the URDF limits [{lower}, {upper}]')
 
 
 def _indices(client, body, joints, tip):
@@ -224,12 +69,13 @@ def _indices(client, body, joints, tip):
 
 
 def _make_wall(world, client, body, tip):
-    """The surface of `world`'s spec (surfaces.Wall) that only the tip link `tip` touches."""
+    """The surface of `world`'s spec (sim_bridge.pybullet_surface.Wall) that only the tip link `tip` touches."""
     spec = world._spec
     normal = surfaces.surface_normal(spec.task_axes, spec.surface.axis, spec.closed_form)
-    radius = surfaces.tip_radius(client, body, tip)
+    radius = pybullet_surface.tip_radius(client, body, tip)
     half = surfaces.HALF_WIDTH_WALL if spec.closed_form else surfaces.HALF_WIDTH_TABLE
-    wall = surfaces.Wall(client, spec.surface, normal, radius, world.tip_position(), spec.surface_damping, half)
+    wall = pybullet_surface.Wall(client, spec.surface, normal, radius, world.tip_position(), spec.surface_damping,
+                                 half)
     # The lecture's environment is a spring on the tip: only the tip's probe touches the surface.
     # (The iiwa's wrist, lbr_iiwa_link_6, reaches the table top next to lbr_iiwa_link_7's origin.)
     for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
@@ -261,13 +107,13 @@ class World:
 
     def __init__(self, scenario=None, gui=False, dt=0.001, params=None, urdf=None, joints=None, q0=None,
                  surface=True, disturbance=None, tip=None, surface_damping=0.0, payload=None, friction=None):
-        self.scenario = _scenario(scenario)
-        self.dt_ns = _whole_ns(dt)
+        self.scenario = scenario_of(scenario)
+        self.dt_ns = whole_ns(dt)
         self.dt = self.dt_ns * 1e-9
         self._tmpdir = tempfile.mkdtemp(prefix='sim_bridge_')
         self._client = None
         try:
-            self._spec = _resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
+            self._spec = resolve(self.scenario, params, urdf, joints, q0, surface, tip, surface_damping,
                                   payload, self._tmpdir)
             self._disturbance = Disturbance.from_config(self.n, disturbance, self._spec.tip is not None)
             self.friction = JointFriction.of(self.n, friction)
@@ -361,7 +207,7 @@ class World:
         _hold(c, self._body, self._others)
         p.setJointMotorControlArray(self._body, self._idx, p.VELOCITY_CONTROL, forces=[0.0] * self.n,
                                     physicsClientId=c)
-        _check_travel(self._spec.joints, q0, self._travel)
+        check_travel(self._spec.joints, q0, self._travel)
         for i, q in zip(self._idx, q0):
             p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
         self._wall = _make_wall(self, c, self._body, self._tip) if spec.surface is not None else None
@@ -373,7 +219,7 @@ class World:
         """Rebuild the world exactly: t = 0, q = q0 (default: the start given at construction), qd = 0,
         zero torque, brakes off. The disturbance in force is kept. Same inputs -> bit-identical run."""
         q0 = self._spec.q0 if q0 is None else validation.vector('q0', q0, self.n)
-        _check_travel(self._spec.joints, q0, self._travel)          # before tearing the old world down
+        check_travel(self._spec.joints, q0, self._travel)          # before tearing the old world down
         self._build(q0)
 
     def close(self):
@@ -473,6 +319,13 @@ class World:
             self._apply_loads()
             p.stepSimulation(physicsClientId=self._client)
             self.t_ns += self.dt_ns
+
+    def prepare(self):
+        """Form ahead, between steps, what the next step's joint friction and armature need of the current state
+        alone (JointPhysics.prepare): the bridge calls it once a state is published, so that the step after the
+        next command does less. Same results; nothing to do without Coulomb friction and armature, or braked."""
+        if self._joints.exact and self._brake is None:
+            self._joints.prepare()
 
     def _apply_loads(self):
         """Joint torque (actuator unless braked, disturbance, mass-spring, friction and armature) and the

@@ -1,4 +1,4 @@
-"""The rclpy-free layers import no rclpy, no message package and (but the world) no pybullet, and
+"""The rclpy-free layers import no rclpy, no message package and (but each world) no physics engine, and
 no module of a layer above their own (library < core < ros, tools; the bridge's world and loop beside the core).
 
 Each module is imported alone in a fresh interpreter, so a forbidden import anywhere in its
@@ -24,10 +24,13 @@ NAMED = ['robot_control', 'robot_control.validation', 'robot_control.gains', 'ro
          'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.disturbance', 'sim_bridge.pacing',
          'sim_bridge.bridge_loop', 'sim_bridge.bridge_params', 'sim_bridge.physics_check',
          'sim_bridge.joint_friction', 'sim_bridge.joint_physics', 'sim_bridge.sensors',
-         'sim_bridge.mujoco_world', 'sim_bridge.mujoco_model', 'sim_bridge.engines']
-#: the worlds and what they build on may import a physics engine (pybullet, mujoco); nothing else may
-PYBULLET_ALLOWED = {'sim_bridge.world', 'sim_bridge.surfaces', 'sim_bridge.physics_check', 'sim_bridge.joint_physics',
-                    'sim_bridge.mujoco_world', 'sim_bridge.mujoco_model'}
+         'sim_bridge.mujoco_world', 'sim_bridge.mujoco_model', 'sim_bridge.engines', 'sim_bridge.world_base',
+         'sim_bridge.pybullet_surface', 'sim_bridge.mujoco_surface']
+#: the worlds and what they build on may import their own physics engine; nothing else may import one
+ENGINE_ALLOWED = {'sim_bridge.world': 'pybullet', 'sim_bridge.pybullet_surface': 'pybullet',
+                  'sim_bridge.physics_check': 'pybullet', 'sim_bridge.joint_physics': 'pybullet',
+                  'sim_bridge.mujoco_world': 'mujoco', 'sim_bridge.mujoco_model': 'mujoco',
+                  'sim_bridge.mujoco_surface': 'mujoco'}
 
 
 def _exists(name):
@@ -49,11 +52,12 @@ print(json.dumps(sorted(sys.modules)))
 '''
 
 
-def _forbidden(module, allow_pybullet):
+def _forbidden(module, engine=None):
+    """True when `module` is a ROS module, or a physics engine's other than `engine` ('pybullet', 'mujoco', None)."""
     top = module.split('.')[0]
     ros = top == 'rclpy' or top.endswith('_msgs') or top == 'builtin_interfaces' or top.startswith('rosidl')
-    bullet = top in ('pybullet', 'pybullet_utils', 'pybullet_envs', 'mujoco')  # pybullet_data is data only
-    return ros or (bullet and not allow_pybullet)
+    own = {'pybullet': ('pybullet', 'pybullet_utils', 'pybullet_envs'), 'mujoco': ('mujoco',)}  # pybullet_data: data
+    return ros or any(top in tops for name, tops in own.items() if name != engine)
 
 
 def test_the_layer_list_holds_the_laws_and_models():
@@ -71,20 +75,21 @@ def _loaded(name):
 
 
 @pytest.mark.parametrize('name', LIBRARY)
-def test_library_module_imports_no_ros_and_no_pybullet(name):
+def test_library_module_imports_no_ros_and_no_other_engine(name):
     loaded = _loaded(name)
     assert name in loaded
-    bad = [m for m in loaded if _forbidden(m, name in PYBULLET_ALLOWED)]
+    bad = [m for m in loaded if _forbidden(m, ENGINE_ALLOWED.get(name))]
     assert not bad, f'{name} pulls in {bad}'
 
 
 def test_the_probe_detects_a_forbidden_import():
     """The check itself can fail: importing pybullet (a module that does) is caught."""
-    bad = [m for m in _loaded('pybullet') if _forbidden(m, False)]
+    bad = [m for m in _loaded('pybullet') if _forbidden(m)]
     assert bad == ['pybullet']
-    assert _forbidden('sensor_msgs.msg', True) and _forbidden('rclpy.node', True)
-    assert not _forbidden('pybullet', True) and not _forbidden('pybullet_data', False)
-    assert _forbidden('mujoco', False) and not _forbidden('mujoco', True)
+    assert _forbidden('sensor_msgs.msg', 'pybullet') and _forbidden('rclpy.node', 'mujoco')
+    assert not _forbidden('pybullet', 'pybullet') and not _forbidden('pybullet_data')
+    assert _forbidden('mujoco') and not _forbidden('mujoco', 'mujoco')
+    assert _forbidden('pybullet', 'mujoco') and _forbidden('mujoco', 'pybullet')
 
 
 #: a module of a layer may import its own layer and the ones below it, never one above

@@ -18,14 +18,6 @@ from robot_control.laws.friction_compensation import FrictionCompensation
 from robot_control.models.base import RobotModel
 from robot_control.validation import ArgumentError
 
-FORCE_FEEDBACK = ('sensor', 'model')
-
-
-def _frozen(a):
-    a = np.array(a, dtype=float)
-    a.flags.writeable = False
-    return a
-
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class ControllerConfig:
@@ -35,29 +27,19 @@ class ControllerConfig:
     law: a name of the registry robot_control.laws.LAWS.
     gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for computed
       torque; torque gains N m/rad ... for independent_joint), (m,) or one per motion axis for hybrid.
-    force_gains: ServoGains (k,) one per force axis (force and hybrid laws), 1/s^2, 1/s, 1/s^3.
     integral: integral action on (ki used) or off (ki ignored, no integral state).
     integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
     integral_rest_velocity: v_r, > 0, in units of Ed (rad/s, m/s or N/s): entry i integrates only while
       |Ed_i| <= v_r, the error at rest (robot_control.laws.integral.moving); inf = always.
     effort_limit: (n,) N m or N, > 0 (inf allowed); None = model.effort_limit.
     joints: joint names in model order; None = model.joint_names.
-    force_axes: names of the force-controlled task axes (subset of model.task_axes, kept in their order).
-    k_e, x_e: environment stiffness (N/m, > 0) and location (m) per force axis, in force_axes order.
-    force_feedback: 'sensor' (the measured force) or 'model' (f = k_e (x - x_e)).
-    force_lead_time: T, s (>= 0): the force laws use the force predicted T ahead, f + fdot T (a command is
-      held for a control period while a stiff contact's force keeps changing); 0 = the lecture's law.
-    posture_gains: (kp0 1/s^2, kv0 1/s) of the null-space posture (hybrid, redundant arms).
     move_time: duration of a set_goal() move, s (> 0).
-    control_period: the period of the states the controller answers, s (> 0): laws whose designed gains
-      depend on the rate keep them stable at it (robot_control.laws.impedance).
-    force_ramp_time: duration of a force reference change, s (>= 0; 0 = step).
-    contact_max_travel, contact_max_speed: lost-contact guard of the force axes (m past the surface the
-      measured force explains, m/s along the axis; > 0, inf = off), robot_control.core.contact.ContactGuard.
-    law_params: the parameters only the law reads: a mapping of its parameter names (Law.param_rows) to
-      values (missing ones at their defaults; None: all), or the law's Params; held as that law's
-      Params (a frozen dataclass, e.g. robot_control.laws.impedance.ImpedanceParams), None for a law
-      without parameters.
+    law_params: the parameters only the law reads: a mapping of its parameter names (Law.all_param_rows:
+      those of its parts, e.g. force_axes, k_e, x_e, force_kp, ... of the force setup or posture_kp, posture_kv, and
+      its own) to values (missing ones at their defaults; None: all), or the law's Params; held as that
+      law's Params (a frozen dataclass, e.g. robot_control.laws.impedance.ImpedanceParams, its parts fitted
+      to the model: the force axes in task-axis order), None for a law without parameters. The law's force
+      setup: control_law.force_task (robot_control.laws.force_task.ForceTask).
     trajectory_tolerance, goal_tolerance: per joint (scalar or (n,)), rad or m, >= 0, 0 = not checked;
       goal_time: s >= 0 (0 = no limit); stopped_velocity_tolerance: rad/s or m/s >= 0
       (robot_control.core.tolerances, like joint_trajectory_controller's constraints).
@@ -72,23 +54,12 @@ class ControllerConfig:
     model: RobotModel
     law: str = 'computed_torque'
     gains: ServoGains = None
-    force_gains: ServoGains = None
     integral: bool = False
     integral_limit: float = math.inf
     integral_rest_velocity: float = math.inf
     effort_limit: np.ndarray = None
     joints: tuple = None
-    force_axes: tuple = ()
-    k_e: np.ndarray = ()
-    x_e: np.ndarray = ()
-    force_feedback: str = 'sensor'
-    force_lead_time: float = 0.0
-    posture_gains: tuple = (25.0, 10.0)
     move_time: float = 2.0
-    control_period: float = 0.001
-    force_ramp_time: float = 0.5
-    contact_max_travel: float = math.inf
-    contact_max_speed: float = math.inf
     trajectory_tolerance: np.ndarray = 0.0
     goal_tolerance: np.ndarray = 0.0
     goal_time: float = 0.0
@@ -103,58 +74,23 @@ class ControllerConfig:
             raise ArgumentError('model', f'expected a RobotModel, got {type(model).__name__}')
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         law = law_class(self.law)
-        if self.force_feedback not in FORCE_FEEDBACK:
-            raise ArgumentError('force_feedback', f'unknown {self.force_feedback!r}; expected one of '
-                                                  f'{list(FORCE_FEEDBACK)}')
         joints = validation.names('joints', model.joint_names if self.joints is None else self.joints)
         if len(joints) != model.n:
             raise ArgumentError('joints', f'expected {model.n} names (the model has {model.n} joints '
                                           f'{list(model.joint_names)}), got {list(joints)}')
         set_('joints', joints)
         set_('integral', bool(self.integral))
-        set_('force_lead_time', validation.scalar('force_lead_time', self.force_lead_time, nonnegative=True))
         set_('integral_limit', float(validation.limit_vector('integral_limit', self.integral_limit, 1)[0]))
         set_('integral_rest_velocity', float(validation.limit_vector('integral_rest_velocity',
                                                                      self.integral_rest_velocity, 1)[0]))
         limit = model.effort_limit if self.effort_limit is None else self.effort_limit
-        set_('effort_limit', _frozen(validation.limit_vector('effort_limits', limit, model.n)))
-        self._set_force_axes(set_)
-        set_('posture_gains', tuple(validation.scalar(name, v, nonnegative=True)
-                                    for name, v in zip(('posture_kp', 'posture_kv'), self.posture_gains)))
+        set_('effort_limit', validation.read_only(validation.limit_vector('effort_limits', limit, model.n)))
         set_('move_time', validation.scalar('move_time', self.move_time, positive=True))
-        set_('control_period', validation.scalar('control_period', self.control_period, positive=True))
-        set_('force_ramp_time', validation.scalar('force_ramp_time', self.force_ramp_time, nonnegative=True))
-        for name in ('contact_max_travel', 'contact_max_speed'):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
-                raise ArgumentError(name, f'expected a positive bound (inf = off), got {value!r}')
-            set_(name, float(value))
         self._set_tolerances(set_)
-        set_('law_params', law.make_params(self.law_params))
+        set_('law_params', law.make_params(self.law_params, model))
         set_('friction_compensation', FrictionCompensation.of(self.friction_compensation, model.n))
         set_('velocity_cutoff_hz', validation.scalar('velocity_cutoff_hz', self.velocity_cutoff_hz, nonnegative=True))
         set_('_law', law(self))
-
-    def _set_force_axes(self, set_):
-        """force_axes in task-axis order, with k_e and x_e reordered to match, and the mask over the task axes."""
-        task_axes = self.model.task_axes
-        axes = tuple(self.force_axes)
-        unknown = [a for a in axes if a not in task_axes]
-        if unknown:
-            raise ArgumentError('force_axes', f'{unknown} not among the model\'s task axes {list(task_axes)}')
-        if len(set(axes)) != len(axes):
-            raise ArgumentError('force_axes', f'duplicate axes in {list(axes)}')
-        ordered = tuple(a for a in task_axes if a in axes)
-        order = [axes.index(a) for a in ordered]
-        k = len(axes)
-        k_e = validation.vector('k_e', self.k_e, k)[order] if k else np.zeros(0)
-        if np.any(k_e <= 0.0):
-            raise ArgumentError('k_e', f'expected positive stiffness (N/m), got {k_e.tolist()}')
-        set_('force_axes', ordered)
-        set_('k_e', _frozen(k_e))
-        set_('x_e', _frozen(validation.vector('x_e', self.x_e, k)[order] if k else np.zeros(0)))
-        set_('_force_mask', np.array([a in axes for a in task_axes], dtype=bool))
-        self._force_mask.flags.writeable = False
 
     def _set_tolerances(self, set_):
         n = self.model.n
@@ -162,7 +98,7 @@ class ControllerConfig:
             value = validation.per_entry(name, getattr(self, name), n)
             if min(value.tolist()) < 0.0:
                 raise ArgumentError(name, f'expected tolerances >= 0 (0 = not checked), got {value.tolist()}')
-            set_(name, _frozen(value))
+            set_(name, validation.read_only(value))
         set_('goal_time', validation.scalar('goal_time', self.goal_time, nonnegative=True))
         set_('stopped_velocity_tolerance', validation.scalar('stopped_velocity_tolerance',
                                                              self.stopped_velocity_tolerance, nonnegative=True))
@@ -186,11 +122,6 @@ class ControllerConfig:
         return self._law
 
     @property
-    def force_mask(self):
-        """Bool (m,) over the model's task axes: True on the force axes (read-only)."""
-        return self._force_mask
-
-    @property
     def integral_dim(self):
         """Entries of the error integral (0: the law integrates nothing)."""
         return self._law.integral_dim
@@ -199,10 +130,9 @@ class ControllerConfig:
         """What the law computes with: a change re-initialises the integral (bumpless transfer)."""
         def arrays(g):
             return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
-        return (self.law, self.integral, arrays(self.gains), arrays(self.force_gains), id(self.model),
-                self.force_axes, tuple(self.k_e), tuple(self.x_e), self.force_feedback, self.force_lead_time,
-                self.posture_gains, self.integral_limit, self.integral_rest_velocity, self.control_period,
-                self.law_params, self.friction_compensation)
+        return (self.law, self.integral, arrays(self.gains), id(self.model),
+                self.integral_limit, self.integral_rest_velocity, self.law_params,
+                self.friction_compensation)
 
     def replace(self, **changes):
         """A copy with `changes` (checked)."""

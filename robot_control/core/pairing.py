@@ -6,7 +6,10 @@ paired with the states (the newest wrench is stamped like the previous state), a
 wrench has not come yet is held until it comes, or until the node's one-shot timer says the wait
 is over; every answer then uses the force of its own tick and lockstep runs repeat bit for bit.
 The first state waits too when the node knows a wrench publisher is there. An unstamped or
-unpaired wrench stream is not waited for after that. Stamps are integer ns.
+unpaired wrench stream is not waited for after that. The held state coming again (a lockstep
+simulator re-publishes a state it has no answer for) keeps waiting: a wait without a limit (the
+node's wrench_wait 0, for lockstep, where the wrench is published before its state) ends only
+with the wrench. Stamps are integer ns.
 """
 
 
@@ -20,8 +23,11 @@ class WrenchPairing:
 
     def state(self, stamp_ns, payload, publisher=False):
         """A new state: the payloads to answer now, in order (a state still held goes first; the new
-        one is held, and not in the list, when the streams are paired and its wrench is still due).
-        publisher: a wrench publisher exists (only asked for the first state)."""
+        one is held, and not in the list, when the streams are paired and its wrench is still due; the
+        held state again: still held, []). publisher: a wrench publisher exists (only asked for the first
+        state)."""
+        if self.held is not None and self.held[0] == stamp_ns:
+            return []
         out = self.release()
         last = self.last_state_ns
         if last is None:

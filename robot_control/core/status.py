@@ -118,11 +118,13 @@ def _law(name, core, counters):
     guard = core.contact_guard
     if guard is not None and guard.active:
         level, message = 'ERROR', f'{message}; {guard.reason}'
+    task = cfg.control_law.force_task
     gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', cfg.gains),
-                                                                                ('force_gains', cfg.force_gains))
+                                                                                ('force_gains', task.gains))
              if servo is not None for g in ('kp', 'kv', 'ki')]
+    axes = ','.join(task.force_axes)
     return (f'{name}: control law', level, message,
-            gains + [('law', cfg.law), ('force_axes', ','.join(cfg.force_axes)), ('integral', cfg.integral),
+            gains + [('law', cfg.law), ('force_axes', axes), ('integral', cfg.integral),
              ('velocity', counters.velocity_source),
              ('fallbacks', core.fallbacks),
              ('contact_trips', guard.trips if guard is not None else 0),
@@ -132,7 +134,8 @@ def _law(name, core, counters):
 
 def needs_wrench(cfg):
     """True when the configured law reads the measured contact force (ft_sensor/wrench)."""
-    return bool(cfg.force_axes) and cfg.control_law.uses_force and cfg.force_feedback == 'sensor'
+    task = cfg.control_law.force_task
+    return bool(task.force_axes) and task.force_feedback == 'sensor'
 
 
 class LawWatch:

@@ -58,28 +58,27 @@ def _config(config):
 
 
 def measure_task(cfg, q, qd, f_meas):
-    """(x, xd, J, Jdot_qd, f, fdot): the task state, and on the force axes f, fdot (N, N/s) when the law
-    uses force (else None, None)."""
+    """(x, xd, J, Jdot_qd, f, fdot): the task state, and on the force axes of the law's force setup
+    (Law.force_task) f, fdot (N, N/s) (none: None, None)."""
     x, J, Jdot_qd = cfg.model._task(q, qd)
     xd = J @ qd
-    if not (cfg.control_law.uses_force and cfg.force_axes):
+    task = cfg.control_law.force_task
+    if not task.force_axes:
         return x, xd, J, Jdot_qd, None, None
-    mask = cfg.force_mask
-    f, fdot = _spring_force(x[mask], xd[mask], cfg.x_e, cfg.k_e, 0.0)      # the lecture's f and fdot = k_e xd
-    if cfg.force_feedback == 'sensor':
+    mask = task.mask
+    f, fdot = _spring_force(x[mask], xd[mask], task.x_e, task.k_e, 0.0)      # the lecture's f and fdot = k_e xd
+    if task.force_feedback == 'sensor':
         if f_meas is None:
             raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
         f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
-    return x, xd, J, Jdot_qd, f + cfg.force_lead_time * fdot, fdot
+    return x, xd, J, Jdot_qd, f + task.force_lead_time * fdot, fdot
 
 
-def contact_guard(cfg):
-    """The lost-contact guard of the force axes for laws that use force (None without one, or with no bound)."""
-    law = cfg.control_law
-    if not (law.uses_force and cfg.force_axes) or not (np.isfinite(cfg.contact_max_travel)
-                                                        or np.isfinite(cfg.contact_max_speed)):
+def contact_guard(task):
+    """The lost-contact guard of the force setup `task` (a ForceTask; None without force axes or bounds)."""
+    if not task.force_axes or not (np.isfinite(task.contact_max_travel) or np.isfinite(task.contact_max_speed)):
         return None
-    return ContactGuard(cfg.force_axes, cfg.k_e, cfg.x_e, cfg.contact_max_travel, cfg.contact_max_speed)
+    return ContactGuard(task.force_axes, task.k_e, task.x_e, task.contact_max_travel, task.contact_max_speed)
 
 
 def sample_reference(cfg, refs, guard, state, last=None):
@@ -97,7 +96,7 @@ def sample_reference(cfg, refs, guard, state, last=None):
     if guard is not None:
         if pending is not None and refs.force_pending is None:     # a stamped target took effect
             guard.reset()
-        mask = cfg.force_mask
+        mask = law.force_task.mask
         x_n = state.x[mask]
         guard.check(x_n, state.xd[mask], state.f, refs.f_target)
         if guard.active:     # the force servo holds x_hold: f_d = f + k_e (x_hold - x)
@@ -126,6 +125,17 @@ def restart_references(refs, guard, t, state, cfg=None, f_meas=None):
     return False
 
 
+def refit_references(refs, task, old_task, move_time):
+    """Fit the References `refs` to a new configuration: the force axes of its force setup `task` (a ForceTask;
+    `old_task` the last one's) and the durations of a move (s) and of a force ramp. True when the force axes
+    changed (the force reference was reset)."""
+    changed = task.force_axes != old_task.force_axes
+    if changed:
+        refs.set_force_axes(len(task.force_axes))
+    refs.move_time, refs.force_ramp_time = move_time, task.force_ramp_time
+    return changed
+
+
 def integral_map(law, state, ref, err):
     """(B = d tau / d int E of `law` at this tick, (ki, kv)); B None when the law fails there."""
     try:
@@ -143,9 +153,9 @@ class ControllerCore:
 
     def __init__(self, config):
         config = _config(config)
-        n = config.n
+        n, task = config.n, config.control_law.force_task
         self._cfg = config
-        self._refs = References(n, len(config.force_axes), config.move_time, config.force_ramp_time)
+        self._refs = References(n, len(task.force_axes), config.move_time, task.force_ramp_time)
         self._integral = Integral._of_checked(config.integral_dim, config.integral_limit)
         self._state = self._ref = self._err = self._f_meas = None   # the last tick's State, Reference, Errors, f_meas
         self._tau, self._sat, self._tau_values = np.zeros(n), np.zeros(n, dtype=bool), [0.0] * n
@@ -154,7 +164,7 @@ class ControllerCore:
         self.ticks = self.saturated_ticks = self.fallbacks = self.restarts = 0
         self.saturation_counts = np.zeros(n, dtype=np.int64)
         self.last_fallback = ''
-        self._guard = contact_guard(config)
+        self._guard = contact_guard(task)
         self.goal = GoalMonitor(config.joints)
 
     # -- configuration -----------------------------------------------------------------------------
@@ -171,15 +181,14 @@ class ControllerCore:
         keeps = old.control_law.tracks == config.control_law.tracks == 'joint' or config.law == old.law
         if config.integral_dim != self._integral.n or config.integral_limit != old.integral_limit:
             self._integral = self._integral.resized(config.integral_dim, config.integral_limit)
-        if config.force_axes != old.force_axes:
-            self._refs.set_force_axes(len(config.force_axes))
-        self._refs.move_time, self._refs.force_ramp_time = config.move_time, config.force_ramp_time
-        self._guard = contact_guard(config)
+        task = config.control_law.force_task
+        axes_changed = refit_references(self._refs, task, old.control_law.force_task, config.move_time)
+        self._guard = contact_guard(task)
         config.control_law.continue_from(old.control_law)
         self._cfg = config
         if self.active:
             self._reinit = self._reinit or config.law_key() != old.law_key()
-            self._restart = self._restart or not keeps or config.force_axes != old.force_axes
+            self._restart = self._restart or not keeps or axes_changed
 
     # -- references --------------------------------------------------------------------------------
     @property

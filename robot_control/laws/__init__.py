@@ -8,7 +8,10 @@ joint_impedance: tau = M qdd_d + C qd + g + K E + D Ed (+ Ki int E), K in N m/ra
 adaptive_computed_torque: Slotine-Li, tau = M qr_dd + C qr_d + g + Y theta_hat - K_D s, the tip's payload estimated.
 
 LAWS is the registry the controller core and the tools ask: law name -> Law class (laws.base).
-A new law is one module with its equation and its Law class, and one entry here.
+A new law is one module with its equation and its Law class, and one entry here. Its parameters are its
+own (Law.param_rows, Params) and the groups it shares with other laws (Law.parts): the force setup
+(force_task.ForceTask: force and hybrid) and the null-space posture (operational_space.Posture: hybrid and
+impedance); the controller's parameter table gathers them from here, each group's rows once.
 """
 from robot_control.laws.adaptive_computed_torque import AdaptiveComputedTorque, adaptive_computed_torque
 from robot_control.laws.base import Errors, Law, Reference, State

@@ -7,7 +7,17 @@ With E = q_d - q, Ed = qd_d - qd, the reference velocity and the sliding variabl
 the torque and the adaptation are
 
     tau = M0(q) qr_dd + C0(q, qd) qr_d + g0(q) + Y(q, qd, qr_d, qr_dd) theta_hat - K_D s,
-    theta_hat_dot = -Gamma Y^T s   (then projected on Omega, below).
+    theta_hat_dot = -Gamma (Y^T s + W_f^T R e),   R = rho / (1 + tr(W_f Gamma W_f^T))
+                    (then projected on Omega, below).
+
+The second term makes it Slotine and Li's composite adaptation: e = W_f theta_hat - r_f (N m) is the error
+of the estimate's prediction of the torque the law sent, from the motion it made (W_f, r_f filtered at
+adaptive_prediction_cutoff_hz; robot_control.laws.torque_prediction), and R (1/(N m s)) weighs it, its
+rate rho (adaptive_prediction_rate, 1/s; 0: the tracking error s alone) normalised by the size of W_f (with
+the 1 in N m): the prediction moves theta_hat at most at rho in any direction (and the Euler step stays
+stable for rho dt < 2). The tracking error alone (rho = 0) answers everything s holds, the command hold's
+own error too, and drifts in the parameters that the move excites little; the prediction holds the
+estimate to what the measured motion says.
 
 M0, C0, g0 are the robot's model as configured (with C0 the Coriolis matrix for which Mdot - 2C is skew:
 Pinocchio's); Y theta is the share of a body carried by the tip in M qr_dd + C qr_d + g, linear in its
@@ -25,11 +35,13 @@ Journal of Robotics Research 6(3), 1987): with the error theta~ = theta_hat - th
 
     V = 1/2 s^T M s + 1/2 theta~^T Gamma^-1 theta~,
     V_dot = s^T (M s_dot + 1/2 Mdot s) + theta~^T Gamma^-1 theta_hat_dot
-          = s^T (Y theta~ - K_D s) + 1/2 s^T (Mdot - 2C) s + theta~^T Gamma^-1 theta_hat_dot = -s^T K_D s,
+          = s^T (Y theta~ - K_D s) + 1/2 s^T (Mdot - 2C) s - theta~^T (Y^T s + W_f^T R W_f theta~)
+          = -s^T K_D s - e^T R e <= 0,
 
-since M s_dot + C s = tau - (M qr_dd + C qr_d + g) = Y theta~ - K_D s and Mdot - 2C is skew. So s and
-theta~ stay bounded, s -> 0 (Barbalat) and with it E, Ed -> 0; theta_hat need not reach theta unless the
-motion excites every parameter. The projection: theta_hat is kept in the convex set
+since M s_dot + C s = tau - (M qr_dd + C qr_d + g) = Y theta~ - K_D s, Mdot - 2C is skew and e = W_f theta~
+(J.-J. E. Slotine and W. Li, "Composite adaptive control of robot manipulators", Automatica 25(4), 1989;
+R(t) >= 0 may vary in time). So s and theta~ stay bounded, s -> 0 (Barbalat) and with it E, Ed -> 0, and
+e -> 0; theta_hat need not reach theta unless the motion excites every parameter. The projection: theta_hat is kept in the convex set
 
     Omega = {0 <= m <= mass_max, |m c| <= com_max m, each rotational inertia entry in
              [0, mass_max com_max^2] (diagonal) or [-mass_max com_max^2 / 2, ...] (off-diagonal)},
@@ -56,6 +68,8 @@ import numpy as np
 from robot_control import validation
 from robot_control.laws.base import Law
 from robot_control.laws.joint_impedance import per_joint
+from robot_control.laws.torque_prediction import TorquePrediction
+from robot_control.models.urdf_model import tip_body_regressor, tip_inertia_regressor
 from robot_control.param_table import Row, custom, gt, gt_eq
 from robot_control.validation import ArgumentError
 
@@ -74,36 +88,51 @@ def _reference_motion(E, Ed, qd_d, qdd_d, lam):
 
 
 def _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd=None):
-    """(tau, Y, s): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, s = qd - qr_d, with
-    Y = model._tip_regressor(q, qd, qr_d, qr_dd) (n, 10); K_D = diag(kd), or when kd is None designed as
-    K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's (Y_s theta = M_theta s).
-    Checked arrays (n,), theta (10,)."""
+    """(tau, Y, s, terms): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, s = qd - qr_d, with
+    Y the tip body's regressor (n, 10) (tip_body_regressor of the tip's motion, model._dynamics_and_tip); K_D = diag(kd), or when kd
+    is None designed as K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's
+    (M_theta s = tip_inertia_regressor(J, s) theta); terms = (M, C qd + g, (J, Jdot, a_g)) for the torque
+    prediction. Checked arrays (n,), theta (10,)."""
     s = qd - qr_d
-    M = model._M(q)
-    if kd is None:
-        Y, Y_s = model._tip_regressor(q, qd, qr_d, qr_dd, s)
-        K_D_s = lam * (M @ s + Y_s @ theta)
+    M, C, g, tip = model._dynamics_and_tip(q, qd)
+    J, Jdot, a_g = tip
+    Y = tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd)
+    if kd is None:          # K_D s = lam (M s + M_theta s): M (qr_dd - lam s) + (Y - lam Y_s) theta
+        tau = M @ (qr_dd - lam * s) + C @ qr_d + g + (Y - lam * tip_inertia_regressor(J, s)) @ theta
     else:
-        Y, K_D_s = model._tip_regressor(q, qd, qr_d, qr_dd), kd * s
-    tau = M @ qr_dd + model._C(q, qd) @ qr_d + model._g(q) + Y @ theta - K_D_s
-    return tau, Y, s
+        tau = M @ qr_dd + C @ qr_d + g + Y @ theta - kd * s
+    return tau, Y, s, (M, C @ qd + g, tip)
 
 
-def _adaptation_step(theta, Y, s, gamma, dt):
-    """theta + dt theta_dot, theta_dot = -Gamma Y^T s (10,); gamma (10,) the diagonal of Gamma, dt s."""
-    return theta - dt * gamma * (Y.T @ s)
+def _adaptation_step(theta, Y, s, gamma, dt, W=None, e=None, rho=0.0):
+    """theta + dt theta_dot (10,), theta_dot = -Gamma (Y^T s + W^T R e), R = rho / (1 + tr(W Gamma W^T));
+    gamma (10,) the diagonal of Gamma, dt s; W (n, 10), e (n,) the prediction (None: the first term alone)."""
+    step = Y.T @ s
+    if W is not None:
+        step += (rho / (1.0 + np.vdot(W * gamma, W))) * (W.T @ e)
+    return theta - (dt * gamma) * step
 
 
 def _project(theta, gamma, mass_max, com_max):
     """The point of Omega (the module docstring) nearest theta (10,) in the metric of Gamma^-1, gamma (10,)
     its diagonal with one value on the three first moments: mass and first moment on the cone
-    |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds."""
+    |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds; theta itself
+    when it is in Omega."""
+    lower, upper = _inertia_bounds(mass_max, com_max)
+    m, h, inertia = theta[0], theta[FIRST_MOMENT], theta[INERTIA]
+    if 0.0 <= m <= mass_max and h @ h <= (com_max * m) ** 2 and (lower <= inertia).all() and (inertia <= upper).all():
+        return theta
     out = theta.copy()
-    out[MASS], out[FIRST_MOMENT] = _project_on_cone(theta[0], theta[FIRST_MOMENT], gamma[0], gamma[1],
-                                                    mass_max, com_max)
-    bound = mass_max * com_max ** 2
-    out[INERTIA] = np.clip(theta[INERTIA], bound * _INERTIA_LOWER, bound * _INERTIA_UPPER)
+    out[MASS], out[FIRST_MOMENT] = _project_on_cone(m, h, gamma[0], gamma[1], mass_max, com_max)
+    out[INERTIA] = np.clip(inertia, lower, upper)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _inertia_bounds(mass_max, com_max):
+    """(lower, upper) (6,) of the rotational inertia's entries in Omega, kg m^2."""
+    bound = mass_max * com_max ** 2
+    return bound * _INERTIA_LOWER, bound * _INERTIA_UPPER
 
 
 def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
@@ -163,7 +192,7 @@ def _gamma_diagonal(name, gamma):
 
 
 def _check_model(model):
-    if not callable(getattr(model, '_tip_regressor', None)) or not model.task_dim:
+    if not callable(getattr(model, '_dynamics_and_tip', None)) or not model.task_dim:
         raise ArgumentError('model', 'adaptive_computed_torque estimates the body carried by the tip: it needs a URDF '
                                      'model with a tip')
 
@@ -176,7 +205,7 @@ _PER_JOINT = 'empty, one value (every joint) or one per joint'
 
 #: the adaptive law's parameters, in the order of the controller's parameter table
 PARAM_ROWS = (
-    Row('adaptation_gain', 'double_array', (5.0, 1.0, 0.01), 'adaptive_computed_torque: adaptation gain Gamma of '
+    Row('adaptation_gain', 'double_array', (5.0, 5.0, 1.0), 'adaptive_computed_torque: adaptation gain Gamma of '
         "the tip's payload estimate, for its mass, first moment m c and rotational inertia: one value for all or "
         'three, kg^2/J, (kg m)^2/J, (kg m^2)^2/J', [custom('one or three values, each > 0', _check_gain)]),
     Row('adaptive_lambda', 'double', 6.0, 'adaptive_computed_torque: Lambda, 1/s: the sliding variable '
@@ -189,6 +218,11 @@ PARAM_ROWS = (
     Row('adaptive_com_max', 'double', 0.3, "adaptive_computed_torque: the payload's centre of mass lies within this "
         "distance of the tip frame's origin, m; its rotational inertia entries within adaptive_mass_max times its "
         'square', [gt(0)]),
+    Row('adaptive_prediction_rate', 'double', 100.0, "adaptive_computed_torque: rho, 1/s: the weight of the "
+        "estimate's torque prediction error in its adaptation (composite adaptation), normalised so that it moves "
+        'the estimate at most at rho; 0 = the tracking error alone (Slotine and Li 1987)', [gt_eq(0)]),
+    Row('adaptive_prediction_cutoff_hz', 'double', 20.0, 'adaptive_computed_torque: cutoff, Hz, of the first-order '
+        'low-pass on the torque prediction (its regressor and the torque it explains)', [gt(0)]),
 )
 _DEFAULTS = {row.name: row.default for row in PARAM_ROWS}
 
@@ -197,13 +231,16 @@ _DEFAULTS = {row.name: row.default for row in PARAM_ROWS}
 class AdaptiveParams:
     """The adaptive law's parameters (PARAM_ROWS), checked: adaptation_gain one or three values > 0 (kg^2/J,
     (kg m)^2/J, (kg m^2)^2/J); adaptive_lambda > 0, 1/s; adaptive_kd empty or values >= 0, N m s/rad (one per
-    joint is checked with the model); adaptive_mass_max > 0, kg; adaptive_com_max > 0, m."""
+    joint is checked with the model); adaptive_mass_max > 0, kg; adaptive_com_max > 0, m;
+    adaptive_prediction_rate >= 0, 1/s; adaptive_prediction_cutoff_hz > 0, Hz."""
 
     adaptation_gain: tuple = _DEFAULTS['adaptation_gain']
     adaptive_lambda: float = _DEFAULTS['adaptive_lambda']
     adaptive_kd: tuple = _DEFAULTS['adaptive_kd']
     adaptive_mass_max: float = _DEFAULTS['adaptive_mass_max']
     adaptive_com_max: float = _DEFAULTS['adaptive_com_max']
+    adaptive_prediction_rate: float = _DEFAULTS['adaptive_prediction_rate']
+    adaptive_prediction_cutoff_hz: float = _DEFAULTS['adaptive_prediction_cutoff_hz']
 
     def __post_init__(self):
         set_ = functools.partial(object.__setattr__, self)
@@ -214,8 +251,10 @@ class AdaptiveParams:
         if kd and (not validation.finite(np.array(kd)) or min(kd) < 0.0):
             raise ArgumentError('adaptive_kd', f'expected {_PER_JOINT}, each >= 0, got {list(kd)}')
         set_('adaptive_kd', kd)
-        for name in ('adaptive_lambda', 'adaptive_mass_max', 'adaptive_com_max'):
+        for name in ('adaptive_lambda', 'adaptive_mass_max', 'adaptive_com_max', 'adaptive_prediction_cutoff_hz'):
             set_(name, validation.scalar(name, getattr(self, name), positive=True))
+        set_('adaptive_prediction_rate', validation.scalar('adaptive_prediction_rate', self.adaptive_prediction_rate,
+                                                           nonnegative=True))
 
 
 class AdaptiveComputedTorque(Law):
@@ -235,6 +274,9 @@ class AdaptiveComputedTorque(Law):
         self.kd = per_joint('adaptive_kd', params.adaptive_kd, self.model.n) if params.adaptive_kd else None
         self.gamma = _gamma_diagonal('adaptation_gain', params.adaptation_gain)
         self.mass_max, self.com_max = params.adaptive_mass_max, params.adaptive_com_max
+        self.rho = params.adaptive_prediction_rate
+        self.prediction = (TorquePrediction(self.model.n, params.adaptive_prediction_cutoff_hz, MAX_ADAPTATION_STEP)
+                           if self.rho > 0.0 else None)
         self.theta = np.zeros(10)        # the estimate theta_hat
         self._t = self._Y = self._s = None   # time, Y and s of the last tick
 
@@ -249,18 +291,25 @@ class AdaptiveComputedTorque(Law):
         if isinstance(old, AdaptiveComputedTorque) and old.model is self.model:
             self.theta = _project(old.theta, self.gamma, self.mass_max, self.com_max)
             self._t, self._Y, self._s = old._t, old._Y, old._s
+            if self.prediction is not None and old.prediction is not None:
+                self.prediction.continue_from(old.prediction)
 
     def torque(self, state, ref, err, int_E):
-        self._adapt(state.t)
+        self._adapt(state.t, state.qd)
         qr_d, qr_dd = _reference_motion(err.E, err.Ed, ref.qd_d, ref.qdd_d, self.lam)
-        tau, self._Y, self._s = _adaptive_computed_torque(self.model, state.q, state.qd, qr_d, qr_dd, self.theta,
-                                                          self.lam, self.kd)
+        tau, self._Y, self._s, terms = _adaptive_computed_torque(self.model, state.q, state.qd, qr_d, qr_dd,
+                                                                 self.theta, self.lam, self.kd)
+        if self.prediction is not None:
+            self.prediction.record(state.t, state.qd, tau, *terms)
         return tau
 
-    def _adapt(self, t):
-        """theta_hat at t: one Euler step of theta_hat_dot = -Gamma Y^T s from the last tick's Y, s, projected."""
+    def _adapt(self, t, qd):
+        """theta_hat at t: one Euler step of theta_hat_dot from the last tick's Y, s and the prediction sampled
+        over the step to (t, qd), projected."""
         last, self._t = self._t, t
+        sampled = self.prediction is not None and self.prediction.sample(t, qd)
         if last is None or not 0.0 < t - last <= MAX_ADAPTATION_STEP:
             return
-        step = _adaptation_step(self.theta, self._Y, self._s, self.gamma, t - last)
+        W, e = (self.prediction.W, self.prediction.error(self.theta)) if sampled else (None, None)
+        step = _adaptation_step(self.theta, self._Y, self._s, self.gamma, t - last, W, e, self.rho)
         self.theta = _project(step, self.gamma, self.mass_max, self.com_max)

@@ -9,7 +9,6 @@ needs, so that nothing else has to know the law by its name:
                     A switch that is not joint -> joint restarts the references from the current state.
   needs_task_space  the model must have a task space (fk, J): the core then measures x, xd, J and
                     Jdot qd once per tick.
-  uses_force        it reads the force reference and the measured force on the force axes.
   torque_gains      its designed gains are torques (N m/rad ...), not accelerations: the parameter
                     layer scales the designed kp, kv, ki by the joint inertia M_ii(q0).
   motion_servo      it has the joint-space motion servo (kp, kv, ki per joint, an integral per joint);
@@ -18,6 +17,13 @@ needs, so that nothing else has to know the law by its name:
                     table gathers them from the registry; Params: a frozen dataclass with one field per
                     row, checked on creation (ArgumentError naming the field), which the configuration
                     holds as law_params. Parameters every law shares stay in ControllerConfig.
+  parts             the parameter groups the law shares with others: classes such as
+                    robot_control.laws.force_task.ForceTask (the force setup) or
+                    robot_control.laws.operational_space.Posture, each a frozen dataclass with its
+                    param_rows, one field per row, `field` (the name of the law's Params field that
+                    holds it) and fitted(model). The table lists a group's rows once.
+  uses_force        it reads the force reference and the measured force on the force axes: it has the
+                    ForceTask among its parts (set from parts, not declared).
 
 An instance is made for one ControllerConfig: its constructor checks what the law needs of the
 configuration (ArgumentError naming the field) and keeps what the tick reads. Per tick the core hands
@@ -31,6 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from robot_control.laws.force_task import NO_FORCE_TASK, ForceTask
 from robot_control.validation import ArgumentError
 
 
@@ -88,23 +95,53 @@ class Law:
     motion_servo = True
     param_rows = ()
     Params = None
+    parts = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.uses_force = ForceTask in cls.parts
 
     @classmethod
-    def make_params(cls, values):
-        """The law's Params from `values` (a mapping row name -> value, missing ones at their defaults; None:
-        all defaults) or a Params already made; None for a law without parameters. ArgumentError naming
-        law_params for a name the law does not have, or the field a Params check refused."""
-        if cls.Params is not None and isinstance(values, cls.Params):
+    def all_param_rows(cls):
+        """The rows of its parts, then its own (param_rows)."""
+        return tuple(row for part in cls.parts for row in part.param_rows) + tuple(cls.param_rows)
+
+    @classmethod
+    def make_params(cls, values, model):
+        """The law's Params from `values` (a mapping of its parameter names, all_param_rows, to values,
+        missing ones at their defaults; None: all defaults) or a Params already made, its parts fitted to
+        `model`; None for a law without parameters. ArgumentError naming law_params for a name the law
+        does not have, or the parameter a check refused."""
+        if cls.Params is None or not isinstance(values, cls.Params):
+            values = cls._params_of(values)
+        if values is None:
+            return None
+        if not cls.parts:
             return values
+        return dataclasses.replace(values, **{p.field: getattr(values, p.field).fitted(model) for p in cls.parts})
+
+    @classmethod
+    def _params_of(cls, values):
         if values is not None and not hasattr(values, 'keys'):
             raise ArgumentError('law_params', f'expected a mapping of the parameters of law {cls.name}, got '
                                               f'{type(values).__name__}')
         values = dict(values or {})
-        known = () if cls.Params is None else [f.name for f in dataclasses.fields(cls.Params)]
+        known = [row.name for row in cls.all_param_rows()]
         unknown = sorted(set(values) - set(known))
         if unknown:
             raise ArgumentError('law_params', f'{unknown} are not parameters of law {cls.name} (it has {known})')
-        return None if cls.Params is None else cls.Params(**values)
+        if cls.Params is None:
+            return None
+        for part in cls.parts:
+            values[part.field] = part(**{row.name: values.pop(row.name) for row in part.param_rows
+                                         if row.name in values})
+        return cls.Params(**values)
+
+    @property
+    def force_task(self):
+        """The force setup (robot_control.laws.force_task.ForceTask) of a law that uses force, fitted to the
+        model's task axes; NO_FORCE_TASK (no force axes) for the others."""
+        return self.config.law_params.force_task if self.uses_force else NO_FORCE_TASK
 
     def __init__(self, config):
         self.config = config

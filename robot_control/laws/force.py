@@ -5,10 +5,13 @@ Plant: m xdd + f = tau, f = k_e (x - x_e) the force the robot exerts on the envi
 v = (1/k_e)(fdd_d + kv Ef_dot + kp Ef), Ef = f_d - f; with fdd = k_e xdd the closed loop is
 Ef'' + kv Ef' + kp Ef = 0.
 """
+import dataclasses
+
 import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Errors, Law
+from robot_control.laws.force_task import ForceTask
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
 
@@ -60,14 +63,23 @@ def spring_force(x, xd, x_e, k_e, sign=0.0):
     return validation.result('f', f), validation.result('fdot', fdot)
 
 
+@dataclasses.dataclass(frozen=True)
+class ForceParams:
+    """The force law's parameters: its force setup with the force servo's gains
+    (robot_control.laws.force_task.ForceTask)."""
+
+    force_task: ForceTask = ForceTask()
+
+
 class Force(Law):
     """The registry's 'force': the lecture's 1-DOF force servo on the model's one task axis."""
 
     name = 'force'
     tracks = 'task'
     needs_task_space = True
-    uses_force = True
     motion_servo = False
+    parts = (ForceTask,)
+    Params = ForceParams
 
     def __init__(self, config):
         super().__init__(config)
@@ -75,11 +87,12 @@ class Force(Law):
         if model.n != 1 or model.task_dim != 1:
             raise ArgumentError('law', f'force is the 1-DOF force servo; the model has {model.n} joints and '
                                        f'{model.task_dim} task axes (use hybrid)')
-        if len(config.force_axes) != 1:
+        task = self.force_task
+        if len(task.force_axes) != 1:
             raise ArgumentError('force_axes', f'law force needs its task axis {list(model.task_axes)}, '
-                                              f'got {list(config.force_axes)}')
-        self.check_servo_gains('force_kp', config.force_gains, 1)
-        self.k_e = float(config.k_e[0])
+                                              f'got {list(task.force_axes)}')
+        self.k_e = float(task.k_e[0])
+        self.gains = task.gains
 
     @property
     def integral_dim(self):
@@ -87,12 +100,12 @@ class Force(Law):
 
     @property
     def reference_names(self):
-        return self.config.force_axes
+        return self.force_task.force_axes
 
     def integral_gains(self):
         if not self.config.integral:
             return np.zeros(1), np.zeros(1)
-        return np.array(self.config.force_gains.ki), np.array(self.config.force_gains.kv)
+        return np.array(self.gains.ki), np.array(self.gains.kv)
 
     def errors(self, state, ref):
         np.subtract(ref.f_d, state.f, out=self.E)
@@ -101,8 +114,8 @@ class Force(Law):
 
     def torque(self, state, ref, err, int_E):
         m = self.model._M(state.q)[0, 0]
-        return _force_1dof(m, state.f, ref.fdd_d, err.E, err.Ed, self.k_e, self.config.force_gains, int_E)
+        return _force_1dof(m, state.f, ref.fdd_d, err.E, err.Ed, self.k_e, self.gains, int_E)
 
     def integral_map(self, state, ref, err):
         """B = m ki / k_e, (1, 1)."""
-        return self.model._M(state.q) * (self.config.force_gains.ki / self.k_e)
+        return self.model._M(state.q) * (self.gains.ki / self.k_e)

@@ -16,12 +16,15 @@ f_e = f on the force axes, 0 on the motion axes. With f = K_e (x_N - x_e) and K_
 whichever side the robot presses from: pressing down on a table (-z) gives f_z < 0, so pushing
 with 10 N is f_d = -10 N on z.
 """
+import dataclasses
+
 import numpy as np
 
 from robot_control import validation
 from robot_control.gains import ServoGains
 from robot_control.laws.base import Errors, Law
-from robot_control.laws.operational_space import (_operational_space, _posture_acceleration, _task_inertia,
+from robot_control.laws.force_task import ForceTask
+from robot_control.laws.operational_space import (Posture, _operational_space, _posture_acceleration, _task_inertia,
                                                   check_law_fits, check_task_dimension, posture_gains)
 from robot_control.laws.servo import _servo, servo_gains
 from robot_control.validation import ArgumentError
@@ -134,6 +137,16 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
                                                        Lambda))
 
 
+@dataclasses.dataclass(frozen=True)
+class HybridParams:
+    """The hybrid law's parameters: its force setup with the force servo's gains
+    (robot_control.laws.force_task.ForceTask) and its null-space posture
+    (robot_control.laws.operational_space.Posture)."""
+
+    force_task: ForceTask = ForceTask()
+    posture: Posture = Posture()
+
+
 class Hybrid(Law):
     """The registry's 'hybrid': motion axes follow fk of the joint reference, force axes the force
     reference; the joint reference is also the null-space posture target."""
@@ -141,13 +154,15 @@ class Hybrid(Law):
     name = 'hybrid'
     tracks = 'task'
     needs_task_space = True
-    uses_force = True
+    parts = (ForceTask, Posture)
+    Params = HybridParams
 
     def __init__(self, config):
         super().__init__(config)
-        model, m, k = self.model, self.model.task_dim, len(config.force_axes)
+        task = self.force_task
+        model, m, k = self.model, self.model.task_dim, len(task.force_axes)
         check_law_fits(self.name, model)
-        self.axes = config.force_mask
+        self.axes = task.mask
         self.force = np.flatnonzero(self.axes)                 # the force axes' indices among the task axes
         self._zeros = np.zeros(m)
         self._zeros.flags.writeable = False
@@ -156,13 +171,11 @@ class Hybrid(Law):
         if motion and getattr(config.gains, 'n', None) not in (m, motion):
             raise ArgumentError('kp', f'expected {m} gains (one per task axis) or {motion} (one per motion axis) '
                                       f'for law hybrid, got {getattr(config.gains, "n", config.gains)}')
-        if k:
-            self.check_servo_gains('force_kp', config.force_gains, k)
-        self.gains = axis_gains(config.gains if motion else None, config.force_gains if k else None, self.axes)
+        self.gains = axis_gains(config.gains if motion else None, task.gains, self.axes)
         K_e = np.ones(m)
-        K_e[self.axes] = config.k_e
+        K_e[self.axes] = task.k_e
         self.K_e = K_e
-        self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
+        self.kp0, self.kv0 = config.law_params.posture.gains(model.n)
 
     @classmethod
     def servo_sizes(cls, model, force_axes):

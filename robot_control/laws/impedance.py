@@ -46,9 +46,9 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Errors, Law
-from robot_control.laws.operational_space import (_inertia_roots, _inverse_task_inertia, _operational_space,
-                                                  _posture_acceleration, _task_inertia, check_law_fits,
-                                                  check_task_dimension, posture_gains)
+from robot_control.laws.operational_space import (Posture, _inertia_roots, _inverse_task_inertia,
+                                                  _operational_space, _posture_acceleration, _task_inertia,
+                                                  check_law_fits, check_task_dimension, posture_gains)
 from robot_control.param_table import Row, gt, gt_eq, size
 from robot_control.validation import ArgumentError
 
@@ -184,6 +184,9 @@ PARAM_ROWS = (
         [size(6, 'pose axis', empty_ok=True), gt_eq(0)]),
     Row('max_pose_error', 'double_array', (0.1, 0.5), 'impedance (and hybrid toward a target_pose): largest '
         'position (m) and rotation (rad) error fed to the law', [size(2, 'bound'), gt(0)]),
+    Row('control_period', 'double', 0.001, 'period of the joint_states the controller answers (the '
+        "bridge's control_period), s: the designed gains of the impedance law are kept stable at this rate",
+        [gt(0)]),
 )
 _DEFAULTS = {row.name: row.default for row in PARAM_ROWS}
 
@@ -193,12 +196,16 @@ class ImpedanceParams:
     """The impedance law's parameters (PARAM_ROWS), checked: cartesian_stiffness six values >= 0 (x, y, z
     N/m; rx, ry, rz N m/rad) or empty for the design (module docstring); cartesian_damping six values >= 0
     (N s/m, N m s/rad) or empty for the design of cartesian_damping_ratio (>= 0); max_pose_error (m, rad) > 0,
-    the bounds of the task error."""
+    the bounds of the task error; control_period (s, > 0): the period of the states the controller answers, at
+    which the designed stiffness stays stable (max_frequency); posture: the null-space posture
+    (robot_control.laws.operational_space)."""
 
     cartesian_stiffness: tuple = _DEFAULTS['cartesian_stiffness']
     cartesian_damping_ratio: float = _DEFAULTS['cartesian_damping_ratio']
     cartesian_damping: tuple = _DEFAULTS['cartesian_damping']
     max_pose_error: tuple = _DEFAULTS['max_pose_error']
+    control_period: float = _DEFAULTS['control_period']
+    posture: Posture = Posture()
 
     def __post_init__(self):
         set_ = functools.partial(object.__setattr__, self)
@@ -212,6 +219,7 @@ class ImpedanceParams:
         if min(limits.tolist()) <= 0.0:
             raise ArgumentError('max_pose_error', f'expected two positive bounds (m, rad), got {limits.tolist()}')
         set_('max_pose_error', tuple(limits.tolist()))
+        set_('control_period', validation.scalar('control_period', self.control_period, positive=True))
 
 
 class Impedance(Law):
@@ -228,6 +236,7 @@ class Impedance(Law):
     motion_servo = False
     param_rows = PARAM_ROWS
     Params = ImpedanceParams
+    parts = (Posture,)
 
     def __init__(self, config):
         super().__init__(config)
@@ -242,10 +251,10 @@ class Impedance(Law):
         explicit = params.cartesian_damping
         self.D = np.diag(axis_values('cartesian_damping', explicit, model.task_axes)) if explicit else None
         self.ratio = params.cartesian_damping_ratio
-        self.w_max = None if stiffness else max_frequency(config.control_period, self.ratio)
+        self.w_max = None if stiffness else max_frequency(params.control_period, self.ratio)
         self.rotation = rotation_mask(model.task_axes)
         self.limits = params.max_pose_error
-        self.kp0, self.kv0 = (np.full(model.n, g) for g in config.posture_gains)
+        self.kp0, self.kv0 = params.posture.gains(model.n)
 
     @property
     def reference_names(self):

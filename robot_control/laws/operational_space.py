@@ -15,9 +15,12 @@ eigendecomposition of the m x m J M^-1 J^T, which also tells a singular J):
     tau = M qdd* + C qd + g + J^T f_e,  qdd* = qdd_0 + Jbar (F - Jdot qd - J qdd_0)
         = rnea(q, qd, qdd_0) + J^T (Lambda (F - Jdot qd - J qdd_0) + f_e).
 """
+import dataclasses
+
 import numpy as np
 
 from robot_control import validation
+from robot_control.param_table import Row, gt_eq
 from robot_control.validation import ArgumentError
 
 #: largest accepted condition number of J M^-1 J^T (the inverse task inertia), from its eigenvalues
@@ -92,6 +95,39 @@ def posture_gains(k_posture, n):
     if min(kp0.tolist()) < 0.0 or min(kv0.tolist()) < 0.0:
         raise ArgumentError('k_posture', f'expected non-negative gains, got {k_posture!r}')
     return kp0, kv0
+
+
+#: the null-space posture's parameters, in the order of the controller's parameter table
+POSTURE_ROWS = (
+    Row('posture_kp', 'double', 25.0, 'null-space posture stiffness (hybrid, impedance; redundant arms), 1/s^2',
+        [gt_eq(0)]),
+    Row('posture_kv', 'double', 10.0, 'null-space posture damping (hybrid, impedance; redundant arms), 1/s',
+        [gt_eq(0)]),
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Posture:
+    """The null-space posture's gains (POSTURE_ROWS), shared by the operational-space laws that declare it
+    (Law.parts): posture_kp Kp0 (1/s^2) and posture_kv Kv0 (1/s), each >= 0 (ArgumentError naming it)."""
+
+    posture_kp: float = POSTURE_ROWS[0].default
+    posture_kv: float = POSTURE_ROWS[1].default
+
+    param_rows = POSTURE_ROWS
+    field = 'posture'          # the name a law's Params holds it under
+
+    def __post_init__(self):
+        for name in ('posture_kp', 'posture_kv'):
+            object.__setattr__(self, name, validation.scalar(name, getattr(self, name), nonnegative=True))
+
+    def fitted(self, model):
+        """The same gains: they do not depend on the model."""
+        return self
+
+    def gains(self, n):
+        """(kp0, kv0), each (n,): the posture gains on every joint."""
+        return np.full(n, self.posture_kp), np.full(n, self.posture_kv)
 
 
 def posture_acceleration(q, qd, q_posture, k_posture):

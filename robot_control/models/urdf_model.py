@@ -152,6 +152,7 @@ class UrdfModel(RobotModel):
         q_ref = _reference(full, movable, joints, q_locked)
         model = _reduced(full, [n for n in movable if n not in joints], q_ref)
         model.gravity = pin.Motion(gravity, np.zeros(3))
+        self._gravity = model.gravity.vector.copy()       # (6,) spatial, world frame
 
         self.joint_names = joints
         self.model = model                   # pinocchio Model (treat as read-only)
@@ -165,7 +166,8 @@ class UrdfModel(RobotModel):
         self.tip, self.frame_id, self.task_axes, self.tip_joints = None, None, (), ()
         if tip is not None:
             self.tip, self.frame_id = tip, _frame(model, tip)
-            moving = set(model.supports[model.frames[self.frame_id].parentJoint])
+            self._tip_joint = model.frames[self.frame_id].parentJoint     # the joint that carries the tip
+            moving = set(model.supports[self._tip_joint])
             self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
         self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
         if tip is not None:
@@ -292,25 +294,38 @@ class UrdfModel(RobotModel):
         xdd = self._motion(pin.getFrameClassicalAcceleration(model, data, fid, LWA))
         return x, xd, xdd
 
-    def _tip_regressor(self, q, qd, qr_d, qr_dd, x=None):
+    def _tip_motion(self, q, qd):
+        """(J, Jdot, a_g): the tip frame's Jacobian and its rate, (6, n) each, and the gravity (6,), spatial
+        vectors (linear, then angular) in the tip frame at (q, qd), from one kinematics pass: the tip's
+        velocity is J qd and its acceleration J qdd + Jdot qd; a_g the world's gravity carried to the frame."""
+        pin.computeJointJacobiansTimeVariation(self.model, self._data, self._map.q(q), self._map.v(qd))
+        return self._tip_frames()
+
+    def _tip_frames(self):
+        """_tip_motion's (J, Jdot, a_g) from the joints' Jacobians and their rates a pass left in data
+        (computeJointJacobiansTimeVariation, computeCoriolisMatrix)."""
+        model, data, joint = self.model, self._data, self._tip_joint
+        to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
+        J, Jdot = pin.getJointJacobian(model, data, joint, pin.WORLD), pin.getJointJacobianTimeVariation(
+            model, data, joint, pin.WORLD)
+        if not self._map.identity:
+            J, Jdot = J[:, self._map.iv], Jdot[:, self._map.iv]
+        return to_tip @ J, to_tip @ Jdot, to_tip @ self._gravity
+
+    def _dynamics_and_tip(self, q, qd):
+        """(M, C, g, (J, Jdot, a_g)): _M, _C, _g and _tip_motion at (q, qd), the tip's from the Coriolis
+        matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in data)."""
+        C = self._C(q, qd)
+        tip = self._tip_frames()
+        return self._M(q), C, self._g(q), tip
+
+    def _tip_regressor(self, q, qd, qr_d, qr_dd):
         """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
         Y pi with pi its inertial parameters in the tip frame (pinocchio.Inertia.toDynamicParameters:
         m; m c; Ixx, Ixy, Iyy, Ixz, Iyz, Izz about the frame's origin). C is Pinocchio's (Mdot - 2C
         skew, computeCoriolisMatrix), so Y is Slotine and Li's regressor: with qr = qd it is the
-        body's share of the inverse dynamics. In the tip frame, J its Jacobian, Jdot J's rate and
-        a_g the gravity (spatial vectors, world quantities carried to the tip frame at q):
-        v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g, and Y = J^T Y_b(v, v_r, a_r)
-        (_slotine_li_body_regressor). With x (n,): (Y, Y_x), Y_x pi = the body's share of M(q) x,
-        Y_x = J^T A(J x) (A: the body regressor of an acceleration alone)."""
-        model, data, fid = self.model, self._data, self.frame_id
-        pin.computeJointJacobiansTimeVariation(model, data, self._map.q(q), self._map.v(qd))
-        joint = model.frames[fid].parentJoint
-        to_tip = pin.updateFramePlacement(model, data, fid).toActionMatrixInverse()    # world -> tip frame
-        J = to_tip @ self._columns(pin.getJointJacobian(model, data, joint, pin.WORLD))
-        Jdot = to_tip @ self._columns(pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD))
-        a_r = J @ qr_dd + Jdot @ qr_d - to_tip @ model.gravity.vector
-        Y = J.T @ _slotine_li_body_regressor(J @ qd, J @ qr_d, a_r)
-        return Y if x is None else (Y, J.T @ _body_regressor(J @ x))
+        body's share of the inverse dynamics (tip_body_regressor of _tip_motion)."""
+        return tip_body_regressor(*self._tip_motion(q, qd), qd, qr_d, qr_dd)
 
     def tip_regressor(self, q, qd, qr_d, qr_dd):
         """_tip_regressor, checked: q, qd, qr_d, qr_dd (n,) rad, rad/s, rad/s^2 -> Y (n, 10); ArgumentError
@@ -369,6 +384,23 @@ class UrdfModel(RobotModel):
                 f'task_space={self.task_space!r})')
 
 
+def tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd):
+    """Y (n, 10) = J^T Y_b(v, v_r, a_r): a body's share, Y pi, of M(q) qr_dd + C(q, qd) qr_d + g(q) when it is
+    carried by a frame with Jacobian J, its rate Jdot (6, n) and gravity a_g (6,) in that frame (UrdfModel
+    ._tip_motion), with v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g (_slotine_li_body_regressor,
+    evaluated by its coefficients: [a_r, (v v_r^T).ravel()] @ _SLOTINE_LI_COEFFICIENTS); vectors (n,) rad/s, rad/s^2."""
+    z = np.empty(42)
+    z[:6] = J @ qr_dd + Jdot @ qr_d - a_g
+    np.outer(J @ qd, J @ qr_d, out=z[6:].reshape(6, 6))
+    return J.T @ (z @ _SLOTINE_LI_COEFFICIENTS).reshape(6, 10)
+
+
+def tip_inertia_regressor(J, x):
+    """Y_x (n, 10) = J^T A(J x): a body's share, Y_x pi, of M(q) x when it is carried by a frame with Jacobian
+    J (6, n) (UrdfModel._tip_motion); x (n,) (A: _body_regressor)."""
+    return J.T @ _body_regressor(J @ x)
+
+
 def _body_regressor(a):
     """A(a) (6, 10): the wrench I a = A(a) pi of a body's spatial inertia I on a spatial vector a (6,), linear in
     its inertial parameters pi and in a: sum_i a_i A(e_i), A(e_i) = pinocchio.bodyRegressor(0, e_i)."""
@@ -388,6 +420,19 @@ def _slotine_li_body_regressor(v, v_r, a_r):
 
 #: A(e_i) (6, 6 x 10), row i: the body regressor I x = A(x) pi of the unit spatial vector x = e_i, flattened
 _BODY_REGRESSOR_BASIS = np.stack([pin.bodyRegressor(pin.Motion.Zero(), pin.Motion(e)).ravel() for e in np.eye(6)])
+
+
+def _slotine_li_coefficients():
+    """(42, 60): Y_b(v, v_r, a_r).ravel() = [a_r, (v v_r^T).ravel()] @ this, _slotine_li_body_regressor being
+    linear in a_r and bilinear in (v, v_r): its values on unit vectors."""
+    zero, unit = np.zeros(6), np.eye(6)
+    rows = [_slotine_li_body_regressor(zero, zero, e) for e in unit]
+    rows += [_slotine_li_body_regressor(e_i, e_j, zero) for e_i in unit for e_j in unit]
+    return np.stack([r.ravel() for r in rows])
+
+
+#: the coefficients of _slotine_li_body_regressor (tip_body_regressor's evaluation: one product per tick)
+_SLOTINE_LI_COEFFICIENTS = _slotine_li_coefficients()
 
 
 def payload_parameters(mass, com):

@@ -2,7 +2,8 @@
 
 ConfigBuilder()(values) builds the model (closed form or URDF; the latest one is kept, so a
 change of gains does not rebuild a URDF model), sizes the servo gains the law needs (each of
-kp, kv, ki explicit or designed from zeta, omega_res, omega_n by robot_control.gains) and makes
+kp, kv, ki explicit or designed from zeta, omega_res, omega_n by robot_control.gains; the force
+servo's force_kp, force_kv, force_ki likewise, written into the law's parameters) and makes
 the ControllerConfig. The law (robot_control.laws.LAWS) says how its motion servo is sized.
 
 Errors are ArgumentErrors named after a parameter, or after a config field or model argument
@@ -14,7 +15,7 @@ from robot_control import gains as gain_design
 from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
 from robot_control.gains import ServoGains
-from robot_control.laws import friction_compensation, law_class
+from robot_control.laws import force_task, friction_compensation, law_class
 from robot_control.models import make_model
 from robot_control.models.base import POSE_JOINTS
 from robot_control.param_table import ParameterError
@@ -104,22 +105,18 @@ class ConfigBuilder:
         scenario = values['scenario']
         q0 = scenarios.get(scenario).q0 if scenario else None
         motion = motion_gains(values, model, design, q0)
-        k = len(values['force_axes'])
-        force = servo_gains(values, 'force_', k, design) if k else None
+        law_params = {row.name: values[row.name] for row in law.all_param_rows()}
+        if law.uses_force:
+            law_params.update(force_task.gain_params(servo_gains(values, 'force_', len(values['force_axes']), design)))
         config = ControllerConfig(
-            model=model, law=values['law'], gains=motion, force_gains=force, integral=values['integral'],
+            model=model, law=values['law'], gains=motion, integral=values['integral'],
             integral_limit=values['integral_limit'], integral_rest_velocity=values['integral_rest_velocity'],
             effort_limit=values['effort_limits'] or None,
-            joints=values['joints'] or None, force_axes=values['force_axes'],
-            k_e=values['k_e'], x_e=values['x_e'], force_feedback=values['force_feedback'],
-            force_lead_time=values['force_lead_time'], posture_gains=(values['posture_kp'], values['posture_kv']),
-            move_time=values['move_time'], force_ramp_time=values['force_ramp_time'],
-            contact_max_travel=values['contact_max_travel'], contact_max_speed=values['contact_max_speed'],
+            joints=values['joints'] or None, move_time=values['move_time'],
             trajectory_tolerance=tolerances(values, model, 'trajectory'), goal_tolerance=tolerances(values, model, 'goal'),
             goal_time=values['constraints.goal_time'],
             stopped_velocity_tolerance=values['constraints.stopped_velocity_tolerance'],
-            control_period=values['control_period'],
-            law_params={row.name: values[row.name] for row in law.param_rows},
+            law_params=law_params,
             friction_compensation=friction_compensation.values_of(values),
             velocity_cutoff_hz=values['velocity_filter.cutoff_hz'])
         q_d = values['q_d']

@@ -175,7 +175,7 @@ class ControllerNode(ParameterNode, LifecycleNode):
         self._params.report(params.gains_in_force(cfg))
         self.get_logger().info(
             f'ready: law {cfg.law}{" (PID)" if cfg.integral else ""}, model {snapshot.values["model"]}, '
-            f'joints {list(cfg.joints)}, force axes {list(cfg.force_axes)}, '
+            f'joints {list(cfg.joints)}, force axes {list(cfg.control_law.force_task.force_axes)}, '
             f'kp {cfg.gains.kp.tolist() if cfg.gains is not None else []}')
         return TransitionCallbackReturn.SUCCESS
 

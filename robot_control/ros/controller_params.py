@@ -3,8 +3,9 @@
 Three stages: `scenario` (read-only) fills the defaults of everything else from
 robot_control.scenarios (model, model_params.*, joints, urdf, tip, force_axes, k_e, x_e);
 `model` (read-only) chooses the model_params.* rows; then every other parameter, among them each
-registered law's own rows (robot_control.laws.LAWS: Law.param_rows). Anything set explicitly wins
-over a scenario default.
+registered law's rows (robot_control.laws.LAWS: Law.all_param_rows, the rows of the groups a law
+shares with others, such as the force setup, listed once). Anything set explicitly wins over a
+scenario default.
 
 Model parameters use a flat dotted scheme that YAML nests naturally:
     model_params.m: 2.0          ->   model_params: {m: 2.0}
@@ -12,6 +13,7 @@ one double per argument of the closed-form model class (robot_control.models.clo
 e.g. polar_two_link: m (kg), gravity (m/s^2); for model 'urdf': gravity (m/s^2, along -z).
 The values become a ControllerConfig in robot_control.ros.config_builder.
 """
+import dataclasses
 import functools
 import inspect
 import math
@@ -19,7 +21,6 @@ import math
 from robot_control import scenarios, units
 from robot_control import urdf as urdf_files
 from robot_control.core import velocity
-from robot_control.core.config import FORCE_FEEDBACK
 from robot_control.laws import LAWS
 from robot_control.laws import friction_compensation
 from robot_control.models import CLOSED_FORM
@@ -97,9 +98,8 @@ def rows(values):
     if 'joints' not in d and model in CLOSED_FORM:
         d['joints'] = CLOSED_FORM[model].joint_names
     get = d.get
-    return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + force_rows(get, model)
-            + motion_rows() + law_rows() + list(friction_compensation.PARAM_ROWS) + payload_id_rows()
-            + node_rows())
+    return (model_param_rows(model, d.get('model_params', {})) + robot_rows(get) + servo_rows() + law_rows(d, model)
+            + motion_rows() + list(friction_compensation.PARAM_ROWS) + payload_id_rows() + node_rows())
 
 
 def robot_rows(get):
@@ -145,9 +145,9 @@ def payload_id_rows():
 
 
 def servo_rows():
-    """The law and its servo gains: designed from zeta, omega_res, omega_n, or explicit; limits."""
+    """The law and its motion servo's gains: designed from zeta, omega_res, omega_n (the force servo's too), or
+    explicit; limits."""
     gains = [custom('empty, or one per joint (hybrid: per task or motion axis)'), gt_eq(0)]
-    per_axis = size('force_axes', 'force axis', empty_ok=True)
     return [
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
@@ -166,12 +166,6 @@ def servo_rows():
             [custom('empty, or as many as kp needs'), gt_eq(0)]),
         Row('ki', 'double_array', (), 'explicit Ki diagonal (empty = designed), used when integral: '
             '1/s^3 or N m/(rad s), N/(m s)', [custom('empty, or as many as kp needs'), gt_eq(0)]),
-        Row('force_kp', 'double_array', (), 'explicit force servo kp per force axis (empty = designed), 1/s^2',
-            [per_axis, gt_eq(0)]),
-        Row('force_kv', 'double_array', (), 'explicit force servo kv per force axis (empty = designed), 1/s',
-            [per_axis, gt_eq(0)]),
-        Row('force_ki', 'double_array', (), 'explicit force servo ki per force axis (empty = designed), 1/s^3',
-            [per_axis, gt_eq(0)]),
         Row('integral_limit', 'double', math.inf,
             'clamp of |integral of the error| per entry: rad s, m s (joints/motion) or N s (force); .inf = no clamp',
             [gt(0)], inf=True),
@@ -184,49 +178,18 @@ def servo_rows():
             f'without velocities: estimated with f_c = {velocity.DEFAULT_CUTOFF_HZ:g} Hz)', [gt_eq(0)]),
         Row('effort_limits', 'double_array', (), "effort limit per joint, N m or N; empty = the model's "
             '(URDF <limit effort>, none for closed forms)', [custom('empty or one per joint'), gt(0)], inf=True),
-        Row('control_period', 'double', 0.001, 'period of the joint_states the controller answers (the '
-            "bridge's control_period), s: the designed gains of the impedance law are kept stable at this rate",
-            [gt(0)]),
-    ]
-
-
-def force_rows(get, model):
-    """The force axes, the environment, the force reference and the lost-contact guard."""
-    per_axis = size('force_axes', 'force axis', empty_ok=True)
-    return [
-        Row('force_axes', 'string_array', get('force_axes', ()),
-            "force-controlled task axes (names of the model's task axes, e.g. x)", [unique(), task_axes_rule(model)]),
-        Row('k_e', 'double_array', get('k_e', ()), 'environment stiffness per force axis, N/m',
-            [size('force_axes', 'force axis'), gt(0)]),
-        Row('x_e', 'double_array', get('x_e', ()), 'environment location per force axis, m',
-            [size('force_axes', 'force axis')]),
-        Row('force_feedback', 'string', 'sensor',
-            "contact force: 'sensor' (ft_sensor/wrench) or 'model' (f = k_e (x - x_e))", [one_of(FORCE_FEEDBACK)]),
-        Row('force_lead_time', 'double', 0.0, 'force laws use the force predicted this far ahead, f + fdot T, '
-            "s; the control period compensates the command hold (0 = the lecture's law)", [gt_eq(0)]),
-        Row('f_d', 'double_array', (), 'desired force per force axis (robot on environment), N; '
-            'empty = 0; changes ramp over force_ramp_time', [per_axis]),
-        Row('force_ramp_time', 'double', 0.5, 'duration of a force reference change (quintic), s; 0 = step',
-            [gt_eq(0)]),
-        Row('contact_max_travel', 'double', 0.05,
-            'lost-contact guard (force, hybrid): largest travel past the surface that the measured force '
-            'does not explain before the force axis is held in position, m; .inf = off', [gt(0)], inf=True),
-        Row('contact_max_speed', 'double', 0.5,
-            'lost-contact guard (force, hybrid): largest speed along a force axis before it is held in '
-            'position, m/s; .inf = off', [gt(0)], inf=True),
     ]
 
 
 def motion_rows():
-    """The joint reference: set-point moves, the null-space posture, trajectory goals and tolerances."""
+    """The references: set-point moves, the force reference, trajectory goals and tolerances."""
     return [
         Row('q_d', 'double_array', (), 'joint set-point, rad or m; empty = hold the start position; '
             'a change starts a quintic move from the current reference over move_time',
             [custom('empty or one per joint')]),
         Row('move_time', 'double', 2.0, 'duration of a q_d move, s', [gt(0)]),
-        Row('posture_kp', 'double', 25.0, 'null-space posture stiffness (hybrid, redundant arms), 1/s^2',
-            [gt_eq(0)]),
-        Row('posture_kv', 'double', 10.0, 'null-space posture damping (hybrid, redundant arms), 1/s', [gt_eq(0)]),
+        Row('f_d', 'double_array', (), 'desired force per force axis (robot on environment), N; '
+            'empty = 0; changes ramp over force_ramp_time', [size('force_axes', 'force axis', empty_ok=True)]),
         Row('allow_partial_joints_goal', 'bool', False,
             'a trajectory may name some of the joints; the others hold (joint_trajectory_controller)'),
         Row('constraints.goal_time', 'double', 0.0,
@@ -237,9 +200,22 @@ def motion_rows():
     ]
 
 
-def law_rows():
-    """Each registered law's own parameters (Law.param_rows), in the registry's order."""
-    return [row for law in LAWS.values() for row in law.param_rows]
+#: rules of the laws' rows that depend on the model: parameter name -> rule of the model's name
+MODEL_RULES = {'force_axes': task_axes_rule}
+
+
+def law_rows(defaults, model):
+    """Each registered law's parameters (Law.all_param_rows), each once, in the registry's order, with the
+    scenario's `defaults` ({name: value}) and the rules that depend on the `model` (MODEL_RULES)."""
+    rows = {}
+    for law in LAWS.values():
+        for row in law.all_param_rows():
+            if row.name in rows:
+                continue
+            rule = MODEL_RULES.get(row.name)
+            rows[row.name] = dataclasses.replace(row, default=defaults.get(row.name, row.default),
+                                                 rules=row.rules + ((rule(model),) if rule else ()))
+    return list(rows.values())
 
 
 def node_rows():
@@ -250,6 +226,10 @@ def node_rows():
         Row('publish_effort_array', 'bool', False,
             'also publish effort_controller/commands (std_msgs/Float64MultiArray, joints order)'),
         Row('diagnostics_period', 'double', 0.5, 'period of /diagnostics, s (wall clock)', [gt(0)]),
+        Row('wrench_wait', 'double', 0.005, 'longest wait of a state for the ft_sensor/wrench stamped like it '
+            '(force laws, once the two streams are paired), s (wall clock); 0 = until it comes (lockstep: the '
+            'simulator publishes a tick\'s wrench before its state and waits for the command)', [gt_eq(0)],
+            read_only=True),
         Row('autostart', 'bool', True,
             'configure and activate at start-up (false: wait for lifecycle transitions, e.g. ros2 lifecycle set)',
             read_only=True),
@@ -279,7 +259,7 @@ def gains_rows():
 def gains_in_force(config):
     """{gains.*: tuple} of a ControllerConfig, for the reported rows."""
     out = {}
-    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.force_gains)):
+    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.control_law.force_task.gains)):
         for gain, _ in GAINS:
             out[f'{prefix}{gain}'] = () if gains is None else tuple(getattr(gains, gain).tolist())
     return out

@@ -33,8 +33,6 @@ from robot_control.ros.reference_inputs import ReferenceInputs
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.core.throttle import Throttle
 
-#: s of wall time a state waits for the wrench of its own tick (paired streams only, core.pairing)
-WRENCH_WAIT = 0.005
 #: smallest watchdog check period, s
 MIN_WATCHDOG_PERIOD = 0.001
 #: throttle of the warnings about rejected input, s
@@ -112,7 +110,7 @@ class ControllerSession:
         self._publish(results, time.perf_counter_ns())
         values = snapshot.values
         self._payload.configure(values)
-        self._apply_references(values, changed=changed, old=old.values)
+        self._apply_references(values, changed=changed, old_axes=old.config.control_law.force_task.force_axes)
         self.allow_partial = values['allow_partial_joints_goal']
         if 'state_timeout' in changed:
             self._set_watchdog(values['state_timeout'])
@@ -139,8 +137,10 @@ class ControllerSession:
         self._err_pub = node.create_publisher(JointState, '~/error', REFERENCE_PUB_QOS)
         self._diag_pub = node.create_publisher(DiagnosticArray, '/diagnostics', DIAGNOSTICS_QOS)
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._wrench_timer = node.create_timer(WRENCH_WAIT, self._on_wrench_wait_over, clock=self._steady,
-                                               autostart=False)
+        # a state of paired streams waits for its own tick's wrench wrench_wait s (core.pairing); 0: until it comes
+        self._wrench_wait = values['wrench_wait']
+        self._wrench_timer = node.create_timer(self._wrench_wait or 1.0, self._on_wrench_wait_over,
+                                               clock=self._steady, autostart=False)
         self._ft_sub = None
         self._set_ft_subscription(cfg)
         inputs = self._inputs
@@ -169,7 +169,7 @@ class ControllerSession:
             self._first_state_ns = stamp_ns
         self._publish(self.controller.state_arrived(stamp_ns, msg.name, msg.position, msg.velocity,
                                                     self._wrench_publisher), t_in)
-        if self.controller.waiting:
+        if self.controller.waiting and self._wrench_wait:
             self._wrench_timer.reset()
         self._payload.on_state(msg.name, msg.effort)
 
@@ -278,11 +278,13 @@ class ControllerSession:
     def publish_diagnostics(self):
         self._diag_pub.publish(conversions.diagnostic_array(self.diagnostics(), self._node.get_clock().now().nanoseconds))
 
-    def _apply_references(self, values, initial=False, changed=(), old=None):
-        k = len(self._core.config.force_axes)
+    def _apply_references(self, values, initial=False, changed=(), old_axes=()):
+        """q_d and f_d of the parameters, when set, changed or (f_d) the law's force axes changed."""
+        axes = self._core.config.control_law.force_task.force_axes
+        k = len(axes)
         if values['q_d'] and (initial or 'q_d' in changed):
             self._core.set_goal(values['q_d'])
-        if k and (initial or 'f_d' in changed or values['force_axes'] != old['force_axes']):
+        if k and (initial or 'f_d' in changed or axes != old_axes):
             self._core.set_force_reference(values['f_d'] or np.zeros(k))
 
     def _set_ft_subscription(self, cfg):

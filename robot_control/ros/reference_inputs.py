@@ -51,7 +51,7 @@ class ReferenceInputs:
     def on_wrench_reference(self, msg):
         """A force reference: at once (header.stamp zero or not ahead of the last state), or pending
         until the first state stamped at or after header.stamp (one pending; a new one replaces it)."""
-        axes = self._s.core.config.force_axes
+        axes = self._s.core.config.control_law.force_task.force_axes
         try:
             if not axes:
                 raise ArgumentError('force_axes', 'none configured (parameter force_axes)')

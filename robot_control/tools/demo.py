@@ -5,8 +5,9 @@
     python -m robot_control.demo --experiment disturbance_pid --no-plot
     python -m robot_control.demo --all                               # every experiment, for docs/results.md
     python -m robot_control.demo --experiment iiwa_ptp --realism typical   # the arm as published, not as modelled
+    python -m robot_control.demo --all --engine both                 # every experiment on PyBullet and MuJoCo
 
-A run starts two OS processes, `sim_bridge_node` (PyBullet: the robot) and `controller_node`,
+A run starts two OS processes, `sim_bridge_node` (the robot, on PyBullet or `--engine mujoco`) and `controller_node`,
 each with `--ros-args --params-file config/<scenario>.yaml` plus the experiment's overrides, on a
 DDS domain of its own with discovery limited to this machine. In this process it runs the
 experiment's reference publisher, the metrics collector and the rosbag2 recorder. It prints a
@@ -16,6 +17,9 @@ robot_control.tools.demo_metrics, the run's domain, expected ticks and lost mess
 `tracking.png`, `bag/` (mcap, every topic) and `logs/` (the two nodes' output).
 `--realism typical` also gives the bridge config/realism/<scenario>_typical.yaml after the scenario's file
 (friction, masses, sensor noise and delay; the controller keeps its model), into out/demo/<name>_typical/.
+`--engine mujoco` runs the bridge on MuJoCo (its parameter `engine`), into out/demo/<name>_mujoco/; `--engine
+both` runs each experiment on both engines and ends with a side-by-side table (side_by_side): tracking RMS and
+steady contact force per engine, flagged where they differ by more than RMS_ATOL and RMS_RTOL / FORCE_RTOL.
 
 Modes: `lockstep` (the default) is deterministic -- the bridge steps only when the command for the
 current state has arrived, so the same run gives the same numbers every time, on any machine; it
@@ -28,10 +32,11 @@ controller that cannot answer every 1 ms tick degrades the response accordingly.
 A run, all waits bounded: start the recorder; start the bridge and pause it; start the controller
 and wait until it is connected; wait for the first tick of every stream (t = 0 is the origin in
 lockstep); send the experiment's references stamped at origin + t (the controller confirms in its
-log) and resume; run for `duration` s of simulation, sending force references as they fall due and
-changing the bridge's run-time parameters when their time has come (pause, set, resume: BridgeSchedule);
-pause, wait for the last tick, stop the recorder and the processes; align the collected messages
-per control tick; compute the metrics, plot (robot_control.tools.plot.tracking_figure), write the files.
+log) and resume; run for `duration` s of simulation, sending the later force references and changing
+the bridge's run-time parameters while the bridge stands still at simulation times (pause_at, make the
+change, resume: Schedule); pause, wait for the last tick, stop the recorder and the processes; align the
+collected messages per control tick; compute the metrics, plot (robot_control.tools.plot.tracking_figure),
+write the files.
 """
 import argparse
 import json
@@ -63,6 +68,11 @@ REPAIR_TIMEOUT = 8.0
 FIRST_TICK = ('/joint_states', '/robot_joint_commands', '/controller/reference', '/controller/error',
               '/ft_sensor/wrench')
 CONFIRM_TIMEOUT = 10.0    # s for the controller to confirm a reference
+#: the physics engines of --engine (the first is the bridge's default); 'both' runs each
+ENGINES = ('pybullet', 'mujoco')
+#: engines agree on tracking when their RMS differ by < RMS_ATOL (rad or m) or < RMS_RTOL of the larger,
+#: on force when their steady forces differ by < FORCE_RTOL of the larger
+RMS_ATOL, RMS_RTOL, FORCE_RTOL = 1e-3, 0.10, 0.05
 
 
 @dataclass
@@ -197,26 +207,35 @@ class Progress:
         self.write(f'  t = {t:6.2f} s  ' + '  '.join(parts) + f'  | {rate:5.0f} ticks/s', flush=True)
 
 
+def output_name(name, realism='ideal', engine='pybullet'):
+    """Directory name of a run's outputs: demo_experiments.output_name, with _<engine> but for the default engine."""
+    base = experiments.output_name(name, realism)
+    return base if engine == ENGINES[0] else f'{base}_{engine}'
+
+
 def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, plot=True, domain_id=None,
-        write=print, keep_data=True, realism='ideal'):
+        write=print, keep_data=True, realism='ideal', engine='pybullet'):
     """Run `experiment` (an Experiment or a name) end to end; returns a RunResult. See the module docstring.
 
     mode 'lockstep' | 'realtime'; duration s of simulation (default the experiment's); out_dir default
     out/demo/<name>; record: bag/; plot: tracking.png; domain_id: ROS_DOMAIN_ID of the run (default: a
     free one of procs.PRIVATE_DOMAIN_IDS); write: print-like function for progress (None: quiet);
     keep_data: keep the per-tick RunData in the result; realism: 'ideal' or 'typical' (the bridge also reads
-    realism_profile(scenario, realism); out_dir default out/demo/<name>_typical).
+    realism_profile(scenario, realism); out_dir default out/demo/<name>_typical); engine: the bridge's physics
+    engine, one of ENGINES (out_dir default out/demo/<name>_<engine> but for pybullet).
     """
     if isinstance(experiment, str):
         experiment = experiments.get(experiment)
     if mode not in ('lockstep', 'realtime'):
         raise ValueError(f"mode: expected 'lockstep' or 'realtime', got {mode!r}")
+    if engine not in ENGINES:
+        raise ValueError(f'engine: expected one of {list(ENGINES)}, got {engine!r}')
     duration = experiment.duration if duration is None else float(duration)
     if not duration > 0:
         raise ValueError(f'duration: expected > 0 s, got {duration}')
     profile = realism_profile(experiment.scenario, realism)
     out_dir = Path(out_dir if out_dir is not None
-                   else ROOT / 'out' / 'demo' / experiments.output_name(experiment.name, realism))
+                   else ROOT / 'out' / 'demo' / output_name(experiment.name, realism, engine))
     out_dir.mkdir(parents=True, exist_ok=True)
     claim = None
     if domain_id is None:   # a private id, claimed for the run
@@ -224,13 +243,13 @@ def run(experiment, mode='lockstep', duration=None, out_dir=None, record=True, p
         domain_id = claim.acquire()
     try:
         return _run(experiment, mode, duration, out_dir, record, plot, int(domain_id), write, keep_data,
-                    (realism, profile))
+                    (realism, profile), engine)
     finally:
         if claim is not None:
             claim.release()
 
 
-def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data, realism):
+def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, keep_data, realism, engine):
     from robot_control.tools import demo_ros
     env = procs.ros_env(domain_id)
     # this process joins the same private domain, loopback only, before rclpy reads the environment
@@ -250,19 +269,19 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
     with LiveRun(domain_id, env, out_dir / 'logs', say) as live:
         if record:
             live.start_recording(out_dir / 'bag')
-        say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s, {describe_realism(*realism)}): '
+        say(f'[demo] {experiment.name} ({scenario}, {mode}, {duration:g} s, {describe_realism(*realism)}, {engine}): '
             f'ROS_DOMAIN_ID={domain_id}, discovery LOCALHOST', flush=True)
-        live.start_nodes(scenario, {'mode': mode, **experiment.bridge}, controller_params(experiment),
+        live.start_nodes(scenario, {'mode': mode, 'engine': engine, **experiment.bridge}, controller_params(experiment),
                          [realism[1]] if realism[1] else [])
         origin_ns = live.wait_for_first_tick(mode)
         live.send_references(joints, experiment.trajectory, origin_ns)
-        changes = BridgeSchedule(experiment.bridge_events, origin_ns, say)
+        changes = Schedule(experiment.bridge_events, origin_ns, say, experiment.force_events, f_names)
         changes.arm(live)
         live.resume()
         end_ns = origin_ns + int(round(duration * NS))
         progress = Progress(live.collector, origin_ns, units, f_names, say if write else None)
         say(f'[demo] running {duration:g} s of simulation from t = {origin_ns / NS:.3f} s', flush=True)
-        live.run_until(end_ns, (ForceSchedule(experiment.force_events, f_names, origin_ns, say), changes), progress)
+        live.run_until(end_ns, (changes,), progress)
         live.pause()
         wall = time.monotonic() - t_wall0
         live.wait_for_last_tick(end_ns)
@@ -277,8 +296,10 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         data.events = changes.applied
     result.summary = summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say)
     result.summary['realism'] = realism[0]
+    result.summary['engine'] = engine
     result.summary['realism_profile'] = None if realism[1] is None else relative_to_root(realism[1])
-    title = f'{law}, {mode}' + ('' if realism[0] == 'ideal' else f', {realism[0]} robot')
+    title = f'{law}, {mode}' + ('' if realism[0] == 'ideal' else f', {realism[0]} robot') + \
+        ('' if engine == ENGINES[0] else f', {engine}')
     write_outputs(out_dir, result.summary, data, experiment, title if plot else None)
     result.data = data if keep_data else None
     return result
@@ -307,61 +328,69 @@ def controller_params(experiment):
     return params
 
 
-class ForceSchedule:
-    """The experiment's force references ((t, f per axis), ...), each sent as soon as the one before
-    it is due (the first at once), stamped with its time: the controller holds it and applies it at
-    exactly that tick (repeatable in lockstep)."""
+class Schedule:
+    """The experiment's timed changes, each made while the bridge stands still: changes of its run-time
+    parameters ((t, {name: value}), ...) and force references ((t, f per axis), ...). The bridge pauses itself
+    at the next change's time (its pause_at, armed for the next change), the changes due are made and it
+    resumes.
 
-    def __init__(self, events, axes, origin_ns, say):
-        self.events = sorted(events)
+    A parameter change acts from the tick the bridge paused at (its step to the next tick is the first with
+    it), the first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s,
+    'parameters': {name: value}}]. A force reference is sent stamped with its time t while the bridge stands
+    before t (the first by `arm`, before the run starts; each later one at the midpoint between the one
+    before it and t) and the controller confirms that it holds it: it applies it at exactly the first tick at
+    or past t, however late the wall clock would have delivered it, so lockstep runs repeat exactly."""
+
+    BRIDGE, FORCE = 1, 0     # the order of two changes at one time: the force reference first
+
+    def __init__(self, events, origin_ns, say, forces=(), axes=()):
+        self.origin_ns = origin_ns
+        self.say = say
         self.axes = axes
-        self.origin_ns = origin_ns
-        self.say = say
-        self.next_send_ns = origin_ns
-
-    def send_due(self, live, stamp_ns):
-        """Send what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
-        while self.events and stamp_ns >= self.next_send_ns:
-            t_ev, f_ev = self.events.pop(0)
-            self.next_send_ns = self.origin_ns + int(round(t_ev * NS))
-            live.control.send_force(self.axes, f_ev, stamp_ns=self.next_send_ns)
-            self.say(f'[demo] force reference {dict(zip(self.axes, f_ev))} N from t = {t_ev:.3f} s (sent at '
-                     f't = {(stamp_ns - self.origin_ns) / NS:.3f} s)', flush=True)
-
-
-class BridgeSchedule:
-    """The experiment's changes of the bridge's run-time parameters ((t, {name: value}), ...): the bridge
-    pauses itself at t (its pause_at, armed for the next change), the parameters are set and it resumes. A
-    change acts from the tick the bridge paused at (its step to the next tick is the first with it), the
-    first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s, 'parameters':
-    {name: value}}]."""
-
-    def __init__(self, events, origin_ns, say):
-        self.events = sorted(events, key=lambda event: event[0])
-        self.origin_ns = origin_ns
-        self.say = say
+        forces = sorted(forces)
+        sent = [0.0] + [0.5 * (a[0] + b[0]) for a, b in zip(forces, forces[1:])]
+        changes = ([(s, self.FORCE, t, f) for s, (t, f) in zip(sent, forces)]
+                   + [(t, self.BRIDGE, t, values) for t, values in events])
+        self.events = sorted(changes, key=lambda change: change[:2])
         self.applied = []
+
+    def _due_ns(self):
+        """The simulation time, ns, of the next change."""
+        return self.origin_ns + int(round(self.events[0][0] * NS))
 
     def _pause_at(self):
         """{'pause_at': the next change's simulation time, s (-1: none left)}."""
-        return {'pause_at': (self.origin_ns / NS + self.events[0][0]) if self.events else -1.0}
+        return {'pause_at': self._due_ns() / NS if self.events else -1.0}
 
     def arm(self, live):
-        """Set the bridge's pause_at for the first change (before the run resumes)."""
+        """Make the changes due at the origin and set the bridge's pause_at for the next (before the run
+        resumes)."""
         if self.events:
-            live.control.set_bridge_parameters(self._pause_at(), poll=live.alive)
+            self._make_due(live, self.origin_ns)
 
     def send_due(self, live, stamp_ns):
-        """Apply what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
-        while self.events and stamp_ns >= self.origin_ns + int(round(self.events[0][0] * NS)):
-            t_ev, values = self.events.pop(0)
+        """Make what is due once the simulation has reached `stamp_ns` (ns), through `live` (a LiveRun)."""
+        if self.events and stamp_ns >= self._due_ns():
             live.pause()                     # paused already by pause_at; a no-op then
-            t_applied = (live.paused_at() - self.origin_ns) / NS
-            live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
+            self._make_due(live, live.paused_at())
             live.resume()
-            self.applied.append({'t': t_ev, 't_applied': t_applied, 'parameters': dict(values)})
-            self.say(f'[demo] bridge parameters {values} from t = {t_applied:.3f} s (due at t = {t_ev:.3f} s)',
+
+    def _make_due(self, live, paused_ns):
+        """The changes due at the tick `paused_ns` (ns) the bridge stands at, and pause_at for the next."""
+        values = {}
+        while self.events and paused_ns >= self._due_ns():
+            _, kind, t_ev, change = self.events.pop(0)
+            t_now = (paused_ns - self.origin_ns) / NS
+            if kind == self.FORCE:
+                live.send_force(self.axes, change, self.origin_ns + int(round(t_ev * NS)))
+                self.say(f'[demo] force reference {dict(zip(self.axes, change))} N from t = {t_ev:.3f} s (sent at '
+                         f't = {t_now:.3f} s)', flush=True)
+                continue
+            values.update(change)
+            self.applied.append({'t': t_ev, 't_applied': t_now, 'parameters': dict(change)})
+            self.say(f'[demo] bridge parameters {change} from t = {t_now:.3f} s (due at t = {t_ev:.3f} s)',
                      flush=True)
+        live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
 
 
 class LiveRun:
@@ -411,8 +440,11 @@ class LiveRun:
 
     def start_nodes(self, scenario, bridge_params, controller_params, bridge_profiles=()):
         """Start the bridge (the scenario's file, then `bridge_profiles`, stacked) and pause it once it is up,
-        start the controller, wait until it is connected."""
+        start the controller (in lockstep with wrench_wait 0: each state waits for its own tick's wrench however
+        late a busy machine hands it over), wait until it is connected."""
         control, collector = self.control, self.collector
+        if bridge_params.get('mode') == 'lockstep':    # the bridge waits for the command: no hurry for a wrench
+            controller_params = {'wrench_wait': 0.0, **controller_params}
         self.bridge = self._start('sim_bridge', 'sim_bridge.bridge_node', scenario, bridge_params, BRIDGE_ARGS,
                                   bridge_profiles)
         control.spin_until(lambda: (collector.publishers('/joint_states') > 0
@@ -466,6 +498,20 @@ class LiveRun:
             if control.controller_rejections(mark):
                 raise RuntimeError(f'controller rejected the trajectory: {control.controller_rejections(mark)}')
 
+    def send_force(self, axes, values, stamp_ns):
+        """Send a force reference (f per axis of `axes`, N) stamped `stamp_ns` and wait for the controller to
+        log that it took it (RuntimeError if it rejects it)."""
+        control = self.control
+        control.spin_until(lambda: control.wrench_pub.get_subscription_count() > 0, STARTUP_TIMEOUT, self.alive,
+                           'the controller to subscribe to its wrench reference')
+        mark = len(control.log)
+        control.send_force(axes, values, stamp_ns=stamp_ns)
+        control.spin_until(lambda: control.controller_said('force reference', mark) is not None
+                           or control.controller_rejections(mark), CONFIRM_TIMEOUT, self.alive,
+                           'the controller to take the force reference')
+        if control.controller_rejections(mark):
+            raise RuntimeError(f'controller rejected the force reference: {control.controller_rejections(mark)}')
+
     def pause(self):
         """Pause the bridge (its physics stands still; it re-publishes the state every 0.1 s)."""
         self.control.pause(True, poll=self.alive)
@@ -485,7 +531,7 @@ class LiveRun:
 
     def run_until(self, end_ns, schedules, progress):
         """Spin until the command of the tick at `end_ns` has arrived, sending the force references and the
-        bridge's parameter changes (`schedules`: a ForceSchedule, a BridgeSchedule) as they fall due;
+        bridge's parameter changes (`schedules`: Schedule objects) as they fall due;
         RuntimeError when the simulation stalls for STALL_TIMEOUT s."""
         collector = self.collector
         last_progress_wall, last_stamp = time.monotonic(), -1
@@ -608,53 +654,96 @@ def _parser():
                    help='ideal: the robot the controller models (default); typical: the bridge also reads '
                         'config/realism/<scenario>_typical.yaml (friction, masses, noise, delay; a scenario '
                         'without a profile runs ideal); outputs in out/demo/<name>_typical')
+    p.add_argument('--engine', choices=(*ENGINES, 'both'), default=ENGINES[0],
+                   help='physics engine of the bridge (default pybullet); both: each experiment on each engine, '
+                        'then a side-by-side table; outputs of mujoco in out/demo/<name>_mujoco')
     p.add_argument('--no-plot', action='store_true', help='do not write tracking.png')
     p.add_argument('--no-record', action='store_true', help='do not record bag/')
-    p.add_argument('--out', default=None, help='output directory (default out/demo/<name>; with --all, '
-                                               'the parent of the per-experiment directories)')
+    p.add_argument('--out', default=None, help='output directory (default out/demo/<name>; with --all or '
+                                               '--engine both, the parent of the per-run directories)')
     p.add_argument('--domain-id', type=int, default=None,
                    help='ROS_DOMAIN_ID of the run (default: the first free of 101, 100, ..., 1)')
     p.add_argument('--quiet', action='store_true', help='no progress lines')
     return p
 
 
-def _one(name, opts, out_dir):
+def _one(name, opts, out_dir, engine):
     from robot_control.tools.demo_metrics import format_summary
     result = run(name, mode=opts.mode if not opts.all else 'lockstep', duration=opts.duration, out_dir=out_dir,
                  record=not opts.no_record, plot=not opts.no_plot, domain_id=opts.domain_id,
-                 write=None if opts.quiet else print, keep_data=False, realism=opts.realism)
-    print(f'\n[demo] {name}: summary\n{format_summary(result.summary)}')
+                 write=None if opts.quiet else print, keep_data=False, realism=opts.realism, engine=engine)
+    print(f'\n[demo] {name} ({engine}): summary\n{format_summary(result.summary)}')
     files = ['summary.json'] + (['tracking.png'] if not opts.no_plot else []) + (['bag/'] if not opts.no_record else [])
     print(f'[demo] wrote {out_dir}/ {" ".join(files)}', flush=True)
     return result
+
+
+def tracking_rms(summary):
+    """The largest RMS tracking error of a run's summary over its coordinates, rad or m, or None."""
+    values = [v for v in summary['rms_error'].values() if v is not None]
+    return max(values) if values else None
+
+
+def steady_force(summary):
+    """The steady contact force of a run's summary on its first force axis, N (the reference less the steady-state
+    error), or None without force control."""
+    if not summary.get('force_axes'):
+        return None
+    axis = summary['force_axes'][0]
+    return summary['force_reference'][axis] - summary['force_steady_state_error'][axis]
+
+
+def _differ(a, b, atol, rtol):
+    """'' when a and b (or either missing) agree within atol or rtol of the larger magnitude, else 'differs'."""
+    if a is None or b is None or abs(a - b) < atol or abs(a - b) < rtol * max(abs(a), abs(b)):
+        return ''
+    return 'differs'
+
+
+def side_by_side(summaries, names):
+    """A Markdown table of {(experiment, engine): summary}: per experiment the tracking RMS (tracking_rms) and the
+    steady force (steady_force) on each engine of ENGINES, and where they differ more than RMS_ATOL / RMS_RTOL or
+    FORCE_RTOL."""
+    head = ['experiment'] + [f'RMS {e}' for e in ENGINES] + ['RMS'] + [f'force {e} N' for e in ENGINES] + ['force']
+    lines = ['| ' + ' | '.join(head) + ' |', '|' + '---|' * len(head)]
+    fmt = (lambda v, spec: '-' if v is None else format(v, spec))
+    for name in names:
+        runs = [summaries.get((name, e)) for e in ENGINES]
+        rms = [None if r is None else tracking_rms(r) for r in runs]
+        force = [None if r is None else steady_force(r) for r in runs]
+        cells = [name] + [fmt(v, '.3e') for v in rms] + [_differ(*rms, RMS_ATOL, RMS_RTOL)]
+        cells += [fmt(v, '.3f') for v in force] + [_differ(*force, 0.0, FORCE_RTOL)]
+        lines.append('| ' + ' | '.join(cells) + ' |')
+    return '\n'.join(lines)
 
 
 def main(argv=None):
     opts = _parser().parse_args(argv)
     if opts.duration is not None and not opts.duration > 0:
         _parser().error('--duration must be > 0')
-    if opts.all:
-        names = list(experiments.EXPERIMENTS)
+    engines = ENGINES if opts.engine == 'both' else (opts.engine,)
+    names = list(experiments.EXPERIMENTS) if opts.all else [opts.experiment or opts.scenario or 'polar_two_link']
+    runs = [(name, engine) for name in names for engine in engines]
+    if opts.out and len(runs) == 1:
+        dirs = {runs[0]: Path(opts.out)}
+    else:      # --out: the parent of the per-run directories
         base = Path(opts.out) if opts.out else ROOT / 'out' / 'demo'
-        dirs = {n: base / experiments.output_name(n, opts.realism) for n in names}
-    else:
-        name = opts.experiment or opts.scenario or 'polar_two_link'
-        names = [name]
-        out = Path(opts.out) if opts.out else ROOT / 'out' / 'demo' / experiments.output_name(name, opts.realism)
-        dirs = {name: out}
+        dirs = {r: base / output_name(r[0], opts.realism, r[1]) for r in runs}
     old = procs.install_signal_handlers()
-    code = 0
+    code, summaries = 0, {}
     try:
-        for name in names:
+        for name, engine in runs:
             try:
-                _one(name, opts, dirs[name])
+                summaries[name, engine] = _one(name, opts, dirs[name, engine], engine).summary
             except (TimeoutError, RuntimeError, procs.ProcessError) as exc:
                 if interrupted(exc):
                     raise
-                print(f'[demo] {name} failed: {exc}', file=sys.stderr, flush=True)
+                print(f'[demo] {name} ({engine}) failed: {exc}', file=sys.stderr, flush=True)
                 code = 1
                 if not opts.all:
                     break
+        if len(engines) > 1:
+            print('\n[demo] the engines side by side\n' + side_by_side(summaries, names), flush=True)
     except BaseException as exc:
         if not interrupted(exc):
             raise

@@ -12,8 +12,9 @@ References reach the controller as ROS messages:
   controller samples it only at the ticks, so it sees the goal at rest one period later.
 - `force`: the initial force reference, the controller parameter f_d with force_ramp_time.
 - `force_events`: later force references, geometry_msgs/WrenchStamped on
-  /controller/wrench_reference stamped with their time and sent ahead of it: the controller
-  applies each at exactly that tick.
+  /controller/wrench_reference stamped with their time and sent ahead of it while the bridge
+  stands still (the first before the run starts, a later one at a pause between the one before
+  it and its time): the controller applies each at exactly that tick.
 - `bridge_events`: changes of the bridge's run-time parameters (e.g. disturbance.cartesian_force,
   a push on the tip) at simulation times: the bridge pauses itself at t (its pause_at), the demo
   sets the parameters and resumes it. The change acts from the tick the bridge paused at, the
@@ -477,6 +478,68 @@ def _gap(variant):
                 IIWA_POSTURE, (GAP_MOVE,) * 7, bridge={'surface.enable': False, **bridge}, duration=3.2)
 
 
+REAL_ARMS = ('iiwa', 'panda')
+REAL_NAMES = {'iiwa': 'KUKA iiwa', 'panda': 'Franka Panda (fingers held)'}
+REAL_MOVE = 0.5            # rad, every joint's move in the real-arm experiments, in REAL_MOVE_TIME s from 0.2 s
+REAL_MOVE_TIME = 2.0
+#: joint_impedance's stiffness on each real arm, N m/rad: Franka's joint impedance example on both (the iiwa's
+#: proximal joints carry more: 1000 N m/rad, within KUKA FRI's joint impedance range of up to 5000)
+REAL_STIFFNESS = {'iiwa': (1000.0, 1000.0, 600.0, 600.0, 250.0, 150.0, 50.0),
+                  'panda': (600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0)}
+REAL_FRICTION_ERROR = 0.7  # the friction estimate 30 % off: the profile's values times this
+REAL_HOLD = 30.0           # s of the hold experiment
+REAL_REPETITIONS = 3       # out-and-back moves of the adaptive experiment
+#: the real-arm experiments' variants: (title, law, controller overrides but the friction's, friction scale or None)
+REAL_VARIANTS = {
+    'move': ("joint impedance and its integral with friction compensation at the profile's values",
+             'joint_impedance', {'integral': True}, 1.0),
+    'move_friction_off': ('joint impedance and its integral with the friction estimate 30 % low', 'joint_impedance',
+                          {'integral': True}, REAL_FRICTION_ERROR),
+    'move_ct': ("computed torque (the scenario's gains), no friction compensation", 'computed_torque', {}, None),
+    'hold': (f'joint impedance with friction compensation and the integral at rest, held to {REAL_HOLD:g} s',
+             'joint_impedance', {'integral': True, 'integral_rest_velocity': 0.01}, 1.0),
+    'adaptive': (f'adaptive computed torque with friction compensation, an unknown 2 kg payload 5 cm out, the move '
+                 f'out and back {REAL_REPETITIONS} times', 'adaptive_computed_torque', {}, 1.0),
+}
+
+
+def real_friction(scenario, scale=1.0):
+    """friction_compensation.coulomb and .viscous at `scale` times config/realism/<scenario>_typical.yaml's friction."""
+    import yaml
+
+    from robot_control.tools.demo import realism_profile
+    with open(realism_profile(scenario, 'typical'), encoding='utf-8') as f:
+        friction = yaml.safe_load(f)['/**/sim_bridge']['ros__parameters']['friction']
+    return {f'friction_compensation.{k}': [scale * v for v in friction[k]] for k in ('coulomb', 'viscous')}
+
+
+def _real_arm(scenario, variant):
+    """A real-arm experiment, for the typical robot (`--realism typical`): every joint REAL_MOVE rad in
+    REAL_MOVE_TIME s from the scenario's start (the iiwa: IIWA_POSTURE), then held; `variant` of REAL_VARIANTS
+    (the adaptive one moves out and back REAL_REPETITIONS times carrying PAYLOAD, which its model lacks)."""
+    title, law, overrides, friction = REAL_VARIANTS[variant]
+    q0 = tuple(float(v) for v in (IIWA_POSTURE if scenario == 'iiwa' else scenarios.get(scenario).q0))
+    goal = tuple(v + REAL_MOVE for v in q0)
+    controller = {'law': law, **overrides, **({} if friction is None else real_friction(scenario, friction))}
+    if law == 'joint_impedance':
+        controller['joint_stiffness'] = list(REAL_STIFFNESS[scenario])
+    bridge = {'initial_positions': list(q0), 'surface.enable': False}
+    t0, duration, figures = 0.2, 3.2, ()
+    traj = TrajectorySpec(t0, (REAL_MOVE_TIME,), (goal,))
+    if variant == 'hold':
+        duration, figures = REAL_HOLD, ('hold',)
+    elif variant == 'adaptive':
+        bridge.update(PAYLOAD)
+        times = tuple(REAL_MOVE_TIME * (k + 1) for k in range(2 * REAL_REPETITIONS))
+        rest = tuple((0.0,) * len(q0) for _ in times)
+        traj = TrajectorySpec(t0, times, tuple((goal, q0)[k % 2] for k in range(len(times))), rest, rest)
+        duration, figures = t0 + times[-1] + 0.5, ('repetitions',)
+    return Experiment(f'{scenario}_real_{variant}', scenario,
+                      f'{REAL_NAMES[scenario]}, typical robot: {REAL_MOVE:g} rad on every joint in '
+                      f'{REAL_MOVE_TIME:g} s, {title}', duration=duration, law=law, controller=controller,
+                      bridge=bridge, trajectory=traj, settle_from=t0, figures=figures)
+
+
 _BUILDERS = {
     'polar_step': _polar_step,
     'planar_fast_path': lambda: _planar('planar_fast_path', 'computed_torque', 'PD computed torque'),
@@ -505,6 +568,7 @@ _BUILDERS = {
     'payload_compensated': lambda: _payload(True),
     'payload_unmodelled': lambda: _payload(False),
     **{f'iiwa_gap_{variant}': (lambda v=variant: _gap(v)) for variant in GAP_VARIANTS},
+    **{f'{arm}_real_{variant}': (lambda a=arm, v=variant: _real_arm(a, v)) for arm in REAL_ARMS for variant in REAL_VARIANTS},
 }
 
 #: the experiment `--scenario NAME` runs

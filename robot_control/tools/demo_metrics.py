@@ -64,7 +64,7 @@ class RunData:
         self.effort_limit = None if effort_limit is None else np.asarray(effort_limit, float)
         self.state_wall_ns = None if state_wall_ns is None else np.asarray(state_wall_ns, dtype=np.int64)
         self.cmd_wall_ns = None if cmd_wall_ns is None else np.asarray(cmd_wall_ns, dtype=np.int64)
-        self.events = []    # the bridge's parameter changes: [{'t', 't_applied', 'parameters'}] (demo.BridgeSchedule)
+        self.events = []    # the bridge's parameter changes: [{'t', 't_applied', 'parameters'}] (demo.Schedule)
 
     @property
     def samples(self):
@@ -239,8 +239,32 @@ def drift_figures(data, experiment):
             'tip_drop_m': float(p0[2] - p1[2]), 'tip_displacement_m': float(np.linalg.norm(p1 - p0))}
 
 
+HOLD_WINDOW = 10.0    # s: the end of a hold over which hold_figures measures the travel
+
+
+def hold_figures(data, experiment):
+    """last_10_s_travel_rad: the largest travel (max - min of the measured position) of a joint over the run's
+    last HOLD_WINDOW s."""
+    last = data.q[data.t >= data.t[-1] - HOLD_WINDOW]
+    return {'last_10_s_travel_rad': float(np.max(np.ptp(last, axis=0)))}
+
+
+def repetition_figures(data, experiment):
+    """repetition_<i>_rms_rad: the RMS error over every joint of each out-and-back pair of the experiment's
+    trajectory segments (i from 1; times after the run's origin), rad."""
+    tr = experiment.trajectory
+    ends = (0.0,) + tuple(tr.times)
+    e, t = data.motion_error(), data.t
+    out = {}
+    for i in range(len(tr.times) // 2):
+        inside = (t >= tr.t_start + ends[2 * i]) & (t < tr.t_start + ends[2 * i + 2])
+        out[f'repetition_{i + 1}_rms_rad'] = float(np.sqrt(np.mean(e[inside] ** 2)))
+    return out
+
+
 #: Experiment.figures name -> fn(data, experiment) -> {figure: value (SI; the name ends with its unit)}
-FIGURES = {'push': push_figures, 'pose': pose_figures, 'orientation': orientation_figures, 'drift': drift_figures}
+FIGURES = {'push': push_figures, 'pose': pose_figures, 'orientation': orientation_figures, 'drift': drift_figures,
+           'hold': hold_figures, 'repetitions': repetition_figures}
 
 
 def summarize(data, experiment, mode, duration, wall_time_s=None):

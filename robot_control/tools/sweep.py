@@ -2,6 +2,8 @@
 
     sweep run SPEC.yaml [--workers N | --ray auto|ADDRESS] [--out DIR] [--episodes N] [--seed S]
     sweep replay RUN K [--format npz|csv]
+    sweep tune SPEC.yaml [--workers N] [--out DIR] [--trials N]     (robot_control.tools.sweep_tune)
+    sweep grid SPEC.yaml [--workers N] [--out DIR]
 
 `run` runs the spec's episodes (each the rclpy-free Controller and the bridge's World in lockstep,
 robot_control.tools.sweep_episode) on N local worker processes (robot_control.tools.sweep_engine) or as
@@ -20,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep_report, sweep_spec
+from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep_report, sweep_spec, sweep_tune
 from robot_control.validation import ArgumentError
 
 TRACE = ('t', 'q', 'qd', 'tau_cmd', 'tau_applied', 'ref_pos', 'ref_vel', 'err_pos', 'err_vel', 'force_xyz')
@@ -54,6 +56,9 @@ def cmd_run(opts):
     print(sweep_report.format_summary(s, sampled))
     if progress.new:
         print(f'{progress.new} episodes run here: {eps:.2f} episodes/s, {ticks:,.0f} ticks/s {engine}')
+    if 'engine' in sampled:
+        print('in the episodes, per engine: ' + ', '.join(f'{name} {rate:,.0f} ticks/s' for name, rate in
+                                                          sweep_report.ticks_per_s_by(rows, 'engine').items()))
     print(f'results: {out}/episodes.csv, summary.json, histograms.png, metrics_vs_parameters.png')
     return 0
 
@@ -130,6 +135,7 @@ def parser():
     y.add_argument('k', type=int, metavar='K', help='the episode index')
     y.add_argument('--format', choices=('npz', 'csv'), default='npz')
     y.set_defaults(func=cmd_replay)
+    sweep_tune.add_commands(sub)
     return p
 
 

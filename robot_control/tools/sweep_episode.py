@@ -286,7 +286,7 @@ def run(p, k, keep=False):
 
 def force_axes(ccfg):
     """The force-controlled axes of a ControllerConfig whose law uses force (demo: the same rule), else ()."""
-    return tuple(ccfg.force_axes) if ccfg.control_law.uses_force else ()
+    return ccfg.control_law.force_task.force_axes
 
 
 def core_names(ccfg):

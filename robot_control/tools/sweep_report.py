@@ -65,7 +65,7 @@ def format_summary(s, sampled):
         lines.append(f'  {key:<16} ' + ' '.join(f'{p["p" + str(q)]:>10.4g}' for q in PERCENTILES))
     lines.append(f'worst {len(s["worst"])} episodes (episode, seed, sampled values, verdict):')
     for w in s['worst']:
-        values = ', '.join(f'{c} {w[c]:.4g}' for c in sampled)
+        values = ', '.join(f'{c} {w[c]}' if isinstance(w[c], str) else f'{c} {w[c]:.4g}' for c in sampled)
         verdict = 'passed' if w['passed'] else ('unstable' if not w['stable'] else 'failed')
         lines.append(f'  #{w["episode"]} seed {w["seed"]}: {values}; rms_error {w["rms_error"]:.4g}, '
                      f'max_error {w["max_error"]:.4g}, peak_torque {w["peak_torque"]:.4g}: {verdict}'
@@ -82,6 +82,26 @@ def _json(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None if math.isnan(value) else str(value)
     return value
+
+
+def ticks_per_s_by(rows, column):
+    """{value of `column`: control ticks per second of wall time of the episodes run with it (sum of ticks / sum
+    of wall_s, each episode in its own process's time)}, e.g. per engine."""
+    out = {}
+    for value in sorted({r[column] for r in rows}):
+        runs = [r for r in rows if r[column] == value and r['wall_s'] > 0]
+        out[value] = sum(r['ticks'] for r in runs) / sum(r['wall_s'] for r in runs) if runs else math.nan
+    return out
+
+
+def _axis(rows, col):
+    """(x (n,) float, labels or None) of a sampled column: numbers as they are, strings (e.g. engine) as the index
+    of the value among `labels`, its sorted values."""
+    values = [r[col] for r in rows]
+    if not any(isinstance(v, str) for v in values):
+        return np.array(values, dtype=float), None
+    labels = sorted(set(values))
+    return np.array([labels.index(v) for v in values], dtype=float), labels
 
 
 def write(out, rows, spec, sampled):
@@ -116,11 +136,13 @@ def plots(out, rows, sampled):
         y = np.array([r[key] for r in rows], dtype=float)
         for j, col in enumerate(sampled):
             ax = grid[i, j]
-            x = np.array([r[col] for r in rows], dtype=float)
+            x, labels = _axis(rows, col)
             ax.scatter(x[ok], y[ok], s=8, color='tab:blue', label='passed')
             ax.scatter(x[~ok], y[~ok], s=8, color='tab:red', label='failed')
             ax.grid(True, alpha=0.35)
-            if np.all(x > 0) and x.max() > 100 * x.min():      # a log-uniform parameter, say
+            if labels:
+                ax.set_xticks(range(len(labels)), labels)
+            elif np.all(x > 0) and x.max() > 100 * x.min():      # a log-uniform parameter, say
                 ax.set_xscale('log')
             if i == len(metrics) - 1:
                 ax.set_xlabel(col)

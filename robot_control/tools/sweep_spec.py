@@ -23,7 +23,8 @@ independently, or lists of one bound per entry):
     {normal: [mean, std]}        optional clip: [lo, hi]
     {loguniform: [lo, hi]}       log x uniform in [log lo, log hi), 0 < lo < hi
     {integers: [lo, hi]}         whole numbers lo..hi, both included
-    {choice: [a, b, ...]}        one of the values, equally likely
+    {choice: [a, b, ...]}        one of the values, equally likely; numbers, or strings for a string
+                                 parameter (e.g. engine: {choice: [pybullet, mujoco]}: each episode on one)
     relative: true               (any of them) the draw multiplies the parameter's base value
 Integer parameters take the draw rounded to the nearest whole number.
 """
@@ -41,7 +42,8 @@ NODES = ('controller', 'sim_bridge')
 KINDS = ('uniform', 'normal', 'loguniform', 'integers', 'choice')
 #: the spec's keys and what they hold
 KEYS = ('name', 'experiment', 'scenario', 'law', 'config', 'controller', 'bridge', 'trajectory', 'duration',
-        'episodes', 'seed', 'sample', 'criteria', 'settle_from', 'steady_window', 'force', 'stability_limit')
+        'episodes', 'seed', 'sample', 'criteria', 'settle_from', 'steady_window', 'force', 'stability_limit',
+        'tune', 'grid')
 #: metrics a criterion may bound (upper limits), see robot_control.tools.sweep_episode.METRICS
 CRITERIA = ('rms_error', 'max_error', 'final_error', 'peak_torque', 'saturated_ticks', 'force_rms_error',
             'force_max_error')
@@ -63,6 +65,8 @@ class Distribution:
         """A value of parameter `row` (param_table.Row) drawn with numpy Generator `rng`: a float, an int
         or a list of them (array rows: one per entry of `base`, the parameter's value before sampling)."""
         size = _entries(self, base, row)
+        if self.kind == 'choice' and row.type == 'string':
+            return self.args[int(rng.integers(len(self.args)))]
         if self.kind == 'choice':
             value = np.asarray(self.args, dtype=float)[rng.integers(len(self.args), size=size)]
         else:
@@ -86,7 +90,11 @@ class Distribution:
 
 
 def _entries(dist, base, row):
-    """The number of entries to draw: None for a scalar row, else the array's length."""
+    """The number of entries to draw: None for a scalar row, else the array's length. A choice of strings is for a
+    string row only, a choice of numbers for the others."""
+    if dist.kind == 'choice' and isinstance(dist.args[0], str) != (row.type == 'string'):
+        raise ArgumentError(f'sample.{dist.name}', f'choice: expected {"strings" if row.type == "string" else "numbers"}'
+                                                   f' for a {row.type} parameter, got {list(dist.args)}')
     if not row.is_array:
         if any(np.ndim(a) for a in dist.args if dist.kind != 'choice'):
             raise ArgumentError(f'sample.{dist.name}', 'a scalar parameter takes scalar bounds')
@@ -118,8 +126,9 @@ def distribution(key, text):
     kind, args = kinds[0], text[kinds[0]]
     if not isinstance(args, (list, tuple)) or (kind != 'choice' and len(args) != 2) or not args:
         raise ArgumentError(where, f'{kind}: expected [lo, hi]' if kind != 'choice' else 'choice: expected a list')
-    if kind == 'choice' and not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in args):
-        raise ArgumentError(where, f'choice: expected numbers, got {args}')
+    if kind == 'choice' and not (all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in args)
+                                 or all(isinstance(v, str) for v in args)):
+        raise ArgumentError(where, f'choice: expected numbers or strings, got {args}')
     if kind != 'choice':
         lo, hi = (np.asarray(a, dtype=float) for a in args)
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):

@@ -7,6 +7,7 @@ from robot_control.core.config import ControllerConfig
 from robot_control.core.controller import Command, Controller, Rejection
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
+from robot_control.laws.force_task import gain_params
 from robot_control.models import make_model
 
 MS = 1_000_000
@@ -18,10 +19,15 @@ def polar():
     return ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2), effort_limit=[200.0, 200.0])
 
 
+#: x against a spring at 0.3 m, the force from the sensor
+FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'sensor',
+         **gain_params(design(1.0, 12.0).gains(1))}
+
+
 def hybrid_sensor():
     d = design(1.0, 12.0)
-    return ControllerConfig(XY, law='hybrid', gains=d.gains(2), force_gains=d.gains(1), force_axes=('x',),
-                            k_e=[1000.0], x_e=[0.3], force_feedback='sensor', effort_limit=[200.0, 200.0])
+    return ControllerConfig(XY, law='hybrid', gains=d.gains(2), law_params=FORCE,
+                            effort_limit=[200.0, 200.0])
 
 
 def test_a_state_by_name_gets_the_core_torque_on_the_stamp_time_line():
@@ -71,7 +77,7 @@ def test_a_law_without_the_measured_force_answers_at_once_and_a_switch_releases_
     ctrl = Controller(hybrid_sensor(), 0.5)
     names, q = ['x', 'y'], [0.3002, 0.1]
     assert list(ctrl.state_arrived(0, names, q, [0.0, 0.0], wrench_publisher=lambda: True)) == []
-    released = list(ctrl.configure(ctrl.config.replace(force_feedback='model')))
+    released = list(ctrl.configure(ctrl.config.replace(law_params=dict(FORCE, force_feedback='model'))))
     assert len(released) == 1 and released[0].stamp_ns == 0 and not ctrl.needs_wrench
     assert len(list(ctrl.state_arrived(MS, names, q, [0.0, 0.0]))) == 1
 

@@ -1,4 +1,5 @@
 """ControllerCore (no ROS): per-tick torque = the library law, references, integral, switching, limits."""
+import dataclasses
 import math
 
 import numpy as np
@@ -8,8 +9,9 @@ from hypothesis import strategies as st
 
 from robot_control.core.tick import ControllerConfig, ControllerCore, measure_task
 from robot_control.gains import ServoGains, design
-from robot_control.laws import (Reference, State, computed_torque, force_1dof, hybrid, independent_joint, saturate,
-                                spring_force)
+from robot_control.laws import (LAWS, Reference, State, computed_torque, force_1dof, hybrid, independent_joint,
+                                saturate, spring_force)
+from robot_control.laws.force_task import gain_params
 from robot_control.models import make_model
 from robot_control.trajectory import from_points, hold, point_to_point
 
@@ -25,20 +27,27 @@ def polar_config(integral=False, law='computed_torque', gains=None, **kw):
     return ControllerConfig(POLAR, law=law, gains=g, integral=integral, **kw)
 
 
+#: the force setup of the cartesian_xy cases: x against a spring at 0.3 m, the force from the model
+XY_FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'model',
+            **gain_params(design(1.0, 12.0).gains(1))}
+
+
 def xy_config(integral=False, feedback='model', **kw):
     d = design(1.0, 12.0, integral=integral)
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
     kw.setdefault('effort_limit', [200.0, 200.0])
-    return ControllerConfig(model, law='hybrid', gains=d.gains(2), force_gains=d.gains(1), integral=integral,
-                            force_axes=('x',), k_e=[1000.0], x_e=[0.3], force_feedback=feedback, **kw)
+    force = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': feedback,
+             **gain_params(d.gains(1)), **kw.pop('force', {})}
+    return ControllerConfig(model, law='hybrid', gains=d.gains(2), integral=integral, law_params=force, **kw)
 
 
 def force_config(integral=False, feedback='model', **kw):
     d = design(1.0, 12.0, integral=integral)
     kw.setdefault('effort_limit', [200.0])
-    return ControllerConfig(make_model('force_1dof', m=1.5), law='force', force_gains=d.gains(1),
-                            integral=integral, force_axes=('x',), k_e=[1000.0], x_e=[0.1],
-                            force_feedback=feedback, **kw)
+    force = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.1], 'force_feedback': feedback,
+             **gain_params(d.gains(1)), **kw.pop('force', {})}
+    return ControllerConfig(make_model('force_1dof', m=1.5), law='force', integral=integral, law_params=force,
+                            **kw)
 
 
 def random_state(n, scale=0.2, base=None):
@@ -76,19 +85,20 @@ def _library_tau(core, q, qd, f_meas=None):
     else:
         model = cfg.model
         x, xd = model.fk(q), model.J(q) @ qd
-        mask = cfg.force_mask
-        if cfg.force_feedback == 'model':
-            f, fdot = spring_force(x[mask], xd[mask], cfg.x_e, cfg.k_e)
+        task = cfg.law_params.force_task
+        mask = task.mask
+        if task.force_feedback == 'model':
+            f, fdot = spring_force(x[mask], xd[mask], task.x_e, task.k_e)
         else:
-            f, fdot = np.asarray(f_meas)[mask], cfg.k_e * xd[mask]
+            f, fdot = np.asarray(f_meas)[mask], task.k_e * xd[mask]
         if cfg.law == 'force':
-            tau = force_1dof(model.M(q)[0, 0], f, fdot, pos, vel, acc, cfg.k_e[0], cfg.force_gains, int_E)
+            tau = force_1dof(model.M(q)[0, 0], f, fdot, pos, vel, acc, task.k_e[0], task.gains, int_E)
         else:
             fm, fdm = np.zeros(model.task_dim), np.zeros(model.task_dim)
             fm[mask], fdm[mask] = f, fdot
             tau = hybrid(model, q, qd, pos, vel, acc, pos, vel, acc, fm, fdm, mask, np.where(mask, 1000.0, 1.0),
-                         cfg.gains, cfg.force_gains, q_posture=core.joint_reference[0],
-                         k_posture=cfg.posture_gains, int_E=int_E)
+                         cfg.gains, task.gains, q_posture=core.joint_reference[0],
+                         k_posture=cfg.law_params.posture.gains(model.n), int_E=int_E)
     return saturate(tau, cfg.effort_limit)[0]
 
 
@@ -113,7 +123,7 @@ def test_every_tick_equals_the_library_law(case, integral, entry):
     core = ControllerCore(make(integral))
     update = getattr(core, entry)
     n = q0.shape[0]
-    if core.config.force_axes:
+    if core.config.control_law.force_task.force_axes:
         core.set_force_reference([4.0])
     core.set_goal(q0 + 0.05)
     for k in range(60):
@@ -311,7 +321,7 @@ def test_trajectory_needs_a_running_controller_and_valid_points():
 
 
 def test_force_reference_ramps_smoothly_to_a_new_target():
-    core = ControllerCore(force_config(force_ramp_time=0.4))
+    core = ControllerCore(force_config(force={'force_ramp_time': 0.4}))
     q = np.array([0.1])
     core.update(0.0, q, np.zeros(1))             # starts from the measured (model) force 0 N
     np.testing.assert_array_equal(core.reference[0], [0.0])
@@ -425,14 +435,13 @@ def test_switch_to_a_law_without_integral_gives_exactly_the_new_law():
 def test_switch_to_hybrid_restarts_the_reference_from_the_current_state():
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
     d = design(1.0, 12.0)
-    core = ControllerCore(ControllerConfig(model, gains=d.gains(2), effort_limit=[200.0, 200.0],
-                                           force_axes=('x',), k_e=[1000.0], x_e=[0.3], force_feedback='model'))
+    core = ControllerCore(ControllerConfig(model, gains=d.gains(2), effort_limit=[200.0, 200.0]))
     core.update(0.0, np.array([0.25, 0.0]), np.zeros(2))
     core.set_goal([0.25, 0.3], duration=0.5)
     for k in range(1, 200):
         core.update(k * DT, np.array([0.25, 0.01]), np.zeros(2))
     q, qd = np.array([0.301, 0.05]), np.array([0.0, 0.1])
-    core.configure(core.config.replace(law='hybrid', force_gains=d.gains(1)))
+    core.configure(core.config.replace(law='hybrid', law_params=XY_FORCE))
     core.set_force_reference([5.0])
     tau = core.update(0.2, q, qd)
     np.testing.assert_array_equal(core.joint_reference[0], q)        # restarted: hold q
@@ -474,34 +483,52 @@ def test_sensor_feedback_uses_the_measured_force_and_model_rate():
 def test_force_lead_time_uses_the_force_one_period_ahead(feedback):
     """force_lead_time T: the force law sees f + fdot T (f measured or k_e (x - x_e), fdot = k_e xd)."""
     T, q, qd, f_meas = 0.001, np.array([0.103]), np.array([0.02]), 2.9
-    core = ControllerCore(force_config(feedback=feedback, force_lead_time=T, force_ramp_time=0.0))
+    core = ControllerCore(force_config(feedback=feedback, force={'force_lead_time': T, 'force_ramp_time': 0.0}))
     core.set_force_reference([3.0])
     tau = core.update(0.0, q, qd, f_meas=[f_meas])
     f = f_meas if feedback == 'sensor' else 1000.0 * (q[0] - 0.1)
-    fdot = 1000.0 * qd[0]
+    fdot, gains = 1000.0 * qd[0], core.config.control_law.force_task.gains
     want = force_1dof(1.5, np.array([f + fdot * T]), np.array([fdot]), np.array([3.0]), np.zeros(1), np.zeros(1),
-                      1000.0, core.config.force_gains)
+                      1000.0, gains)
     np.testing.assert_allclose(tau, want, rtol=0, atol=1e-12)
     assert abs(want[0] - force_1dof(1.5, np.array([f]), np.array([fdot]), np.array([3.0]), np.zeros(1),
-                                    np.zeros(1), 1000.0, core.config.force_gains)[0]) > 0.01   # T matters here
+                                    np.zeros(1), 1000.0, gains)[0]) > 0.01   # T matters here
 
 # -- configuration ---------------------------------------------------------------------------------------
+def test_the_configuration_holds_only_what_every_law_shares():
+    """What one law (or a group of laws: the force setup, the posture) reads is in its Params (law_params), not in
+    ControllerConfig: no field of the configuration is a parameter of a law."""
+    fields = {f.name for f in dataclasses.fields(ControllerConfig)}
+    assert fields == {'model', 'law', 'gains', 'integral', 'integral_limit', 'integral_rest_velocity',
+                      'effort_limit', 'joints', 'move_time', 'trajectory_tolerance', 'goal_tolerance',
+                      'goal_time', 'stopped_velocity_tolerance', 'law_params', 'friction_compensation',
+                      'velocity_cutoff_hz'}
+    law_rows = {row.name for law in LAWS.values() for row in law.all_param_rows()}
+    assert {'force_axes', 'k_e', 'x_e', 'force_kp', 'posture_kp', 'contact_max_travel', 'control_period'} <= law_rows
+    assert not fields & law_rows
+    assert [name for name, law in LAWS.items() if law.uses_force] == ['force', 'hybrid']
+
+
 @pytest.mark.parametrize('changes, match', [
     ({'law': 'pid'}, '^law: unknown'),
     ({'gains': ServoGains.uniform(3, 1.0, 1.0)}, '^kp: expected 2 gains'),
     ({'effort_limit': [1.0, -1.0]}, '^effort_limits:'),
     ({'effort_limit': [1.0]}, '^effort_limits:'),
     ({'integral_limit': 0.0}, '^integral_limit:'),
-    ({'force_axes': ('q',)}, '^force_axes:'),
-    ({'force_axes': ('x',), 'k_e': [-1.0], 'x_e': [0.0]}, '^k_e:'),
-    ({'force_axes': ('x',), 'k_e': [1.0]}, '^x_e:'),
-    ({'force_feedback': 'guess'}, '^force_feedback:'),
+    ({'law': 'hybrid', 'law_params': {'force_axes': ('q',), 'k_e': [1.0], 'x_e': [0.0]}}, '^force_axes:'),
+    ({'law': 'hybrid', 'law_params': {'force_axes': ('x',), 'k_e': [-1.0], 'x_e': [0.0]}}, '^k_e:'),
+    ({'law': 'hybrid', 'law_params': {'force_axes': ('x',), 'k_e': [1.0]}}, '^x_e:'),
+    ({'law': 'hybrid', 'law_params': {'force_feedback': 'guess'}}, '^force_feedback:'),
+    ({'law': 'hybrid', 'law_params': {'contact_max_travel': 0.0}}, '^contact_max_travel:'),
     ({'law': 'force'}, '^law: force is the 1-DOF'),
-    ({'law': 'hybrid', 'force_axes': ('x',), 'k_e': [1.0], 'x_e': [0.0]}, '^force_kp:'),
+    ({'law': 'hybrid', 'law_params': {'force_axes': ('x',), 'k_e': [1.0], 'x_e': [0.0]}}, '^force_kp:'),
     ({'joints': ('a',)}, '^joints:'),
     ({'move_time': 0.0}, '^move_time:'),
-    ({'posture_gains': (-1.0, 1.0)}, '^posture_kp:'),
-    ({'force_lead_time': -0.001}, '^force_lead_time:'),
+    ({'law': 'hybrid', 'law_params': {'posture_kp': -1.0}}, '^posture_kp:'),
+    ({'law': 'impedance', 'gains': None, 'law_params': {'posture_kv': -1.0}}, '^posture_kv:'),
+    ({'law': 'impedance', 'gains': None, 'law_params': {'control_period': 0.0}}, '^control_period:'),
+    ({'law': 'hybrid', 'law_params': {'force_lead_time': -0.001}}, '^force_lead_time:'),
+    ({'law_params': {'force_axes': ('x',)}}, r"^law_params: \['force_axes'\] are not parameters of law computed"),
 ])
 def test_invalid_configurations_are_rejected_naming_the_parameter(changes, match):
     with pytest.raises(ValueError, match=match):
@@ -546,7 +573,7 @@ def test_the_law_is_evaluated_once_per_tick_saturated_or_not_and_after_a_switch(
     cfg = make(True)
     core = ControllerCore(cfg.replace(effort_limit=np.full(cfg.n, 1.0)))
     calls = _count_torque_calls(core)
-    if core.config.force_axes:
+    if core.config.control_law.force_task.force_axes:
         core.set_force_reference([40.0])
     core.set_goal(q0 + 0.3, duration=0.02)
     for k in range(40):
@@ -597,7 +624,7 @@ def test_the_integral_map_of_every_law_is_its_torque_s_derivative_in_the_integra
     """B = d tau / d int E in closed form equals the law's finite differences: tau is affine in int E."""
     make, q0, f_meas = CASES[case]
     cfg = make(True)
-    law, k = cfg.control_law, len(cfg.force_axes)
+    law, k = cfg.control_law, len(cfg.control_law.force_task.force_axes)
     q, qd = random_state(q0.shape[0], 0.002, q0)
     state = State(0.1, q, qd, *measure_task(cfg, q, qd, f_meas)) if law.needs_task_space else State(0.1, q, qd)
     force = (np.full(k, 3.0), np.full(k, 0.5), np.full(k, 0.1)) if k else (None, None, None)
@@ -640,7 +667,7 @@ def test_a_law_reads_its_inputs_and_writes_none_of_them(case):
             state.q = None
         return tau
     law.torque = watched
-    if core.config.force_axes:
+    if core.config.control_law.force_task.force_axes:
         core.set_force_reference([4.0])
     core.set_goal(q0 + 0.05)
     for k in range(20):
@@ -661,8 +688,7 @@ def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
     np.testing.assert_allclose(core.reference_at(1.0)[0], [0.5, 0.9])
     np.testing.assert_array_less(q0, core.reference_at(0.5)[0])
     xy = xy_config()
-    core = ControllerCore(xy.replace(law='gravity_compensation', gains=None, force_gains=None, force_axes=(),
-                                     k_e=(), x_e=()))
+    core = ControllerCore(xy.replace(law='gravity_compensation', gains=None, law_params=None))
     core.update(0.0, np.array([0.3, 0.1]), np.zeros(2))
     core.configure(ControllerConfig(xy.model, law='impedance', effort_limit=[200.0, 200.0]))
     core.set_target_pose([0.32, 0.12])
@@ -670,12 +696,11 @@ def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
     np.testing.assert_array_equal(core.reference[0], [0.32, 0.12])
     # a law that uses force: its force reference still ramps from the force measured at the restart
     d = design(1.0, 12.0)
-    ct = ControllerConfig(xy.model, gains=d.gains(2), effort_limit=[200.0, 200.0], force_axes=('x',), k_e=[1000.0],
-                          x_e=[0.3], force_feedback='model')
+    ct = ControllerConfig(xy.model, gains=d.gains(2), effort_limit=[200.0, 200.0])
     core = ControllerCore(ct)
     q = np.array([0.301, 0.05])
     core.update(0.0, q, np.zeros(2))
-    core.configure(ct.replace(law='hybrid', force_gains=d.gains(1)))
+    core.configure(ct.replace(law='hybrid', law_params=XY_FORCE))
     core.set_force_reference([5.0])
     core.set_target_pose([0.0, 0.08])
     core.update(0.001, q, np.zeros(2))

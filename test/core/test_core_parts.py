@@ -14,6 +14,7 @@ from robot_control.core.timeline import Timeline
 from robot_control.core.watchdog import StateWatchdog
 from robot_control.gains import ServoGains, design
 from robot_control.laws import LAWS, Law, gravity_compensation
+from robot_control.laws.force_task import gain_params
 from robot_control.models import make_model
 from robot_control.validation import ArgumentError
 
@@ -134,6 +135,14 @@ def test_an_unpaired_or_late_wrench_stream_is_not_waited_for_again():
     assert p.state(4 * MS, 's4') == ['s4']                 # its wrench never came: not waited for again
 
 
+def test_a_held_state_coming_again_keeps_waiting_for_its_wrench():
+    """A lockstep simulator re-publishes the state it has no answer for: the state still waits for its wrench."""
+    p = WrenchPairing()
+    p.state(0, 's0', publisher=True)
+    assert p.state(0, 's0 again') == [] and p.held == (0, 's0')
+    assert p.wrench(0) == ['s0'] and p.held is None
+
+
 def test_a_new_state_releases_a_held_one_first():
     p = WrenchPairing()
     p.state(0, 's0', publisher=True)
@@ -168,8 +177,9 @@ def test_the_law_status_names_the_force_axes():
     """A bag reader tells the force axes from the motion axes of ~/reference by this key."""
     d = design(1.0, 12.0)
     hybrid = ControllerCore(ControllerConfig(make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81), law='hybrid',
-                                             gains=d.gains(2), force_gains=d.gains(1), force_axes=('x',),
-                                             k_e=[1000.0], x_e=[0.3], force_feedback='model'))
+                                             gains=d.gains(2),
+                                             law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3],
+                                                         'force_feedback': 'model', **gain_params(d.gains(1))}))
     joint = ControllerCore(ControllerConfig(POLAR, gains=d.gains(2)))
     for core, axes in ((hybrid, 'x'), (joint, '')):
         law = controller_statuses('controller', core, StateWatchdog(0.5), None, Counters(('joint_states',)))[3]

@@ -218,7 +218,7 @@ def test_force_step_follows_the_designed_dynamics(runs):
           f'{s["force_settling_time_s"]:.3f} s (designed {designed_settling:.3f} s); max f {np.nanmax(f):.4f} N; '
           f'steady-state force error {e_ss:.3g} N = {abs(e_ss) / f_d:.2e} f_d')
     assert np.all(d.force_reference()[first, 0] == f_d)      # a step at the first tick (force_ramp_time 0)
-    # the next step, sent at the start stamped 2.0 s, is applied at exactly that tick
+    # the next step, sent before the run starts stamped 2.0 s, is applied at exactly that tick
     assert np.all(d.force_reference()[~first, 0] == f_next) and np.isclose(d.t[~first][0], t_next)
     assert deviation < 0.01
     assert abs(s['force_settling_time_s'] - designed_settling) < 0.03 * designed_settling

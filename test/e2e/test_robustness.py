@@ -36,6 +36,7 @@ from support import robustness as rh
 from robot_control.core.tick import ControllerConfig, ControllerCore
 from robot_control.gains import ServoGains, design
 from robot_control.laws import Integral, computed_torque, hybrid, saturate
+from robot_control.laws.force_task import gain_params
 from robot_control.models import for_scenario, make_model
 from robot_control.core.contact import ContactGuard
 
@@ -224,9 +225,11 @@ def test_hybrid_and_force_laws_saturate_and_recover():
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
 
     def run_hybrid(limit):
-        cfg = ControllerConfig(model=model, law='hybrid', gains=PID.gains(2), force_gains=PID.gains(1),
-                               integral=True, effort_limit=list(limit), force_axes=('x',), k_e=[1000.0],
-                               x_e=[0.3], force_feedback='sensor', move_time=0.05, force_ramp_time=0.2)
+        cfg = ControllerConfig(model=model, law='hybrid', gains=PID.gains(2), integral=True,
+                               effort_limit=list(limit), move_time=0.05,
+                               law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3],
+                                           'force_feedback': 'sensor', 'force_ramp_time': 0.2,
+                                           **gain_params(PID.gains(1))})
         core = ControllerCore(cfg)
         q, qd = np.array([0.305, 0.0]), np.zeros(2)
         f = np.array([5.0, 0.0])
@@ -256,9 +259,10 @@ def test_hybrid_and_force_laws_saturate_and_recover():
     fmodel = make_model('force_1dof', m=1.0)
 
     def run_force(limit, fd=30.0):
-        cfg = ControllerConfig(model=fmodel, law='force', force_gains=PID.gains(1), integral=True,
-                               effort_limit=[limit], force_axes=('x',), k_e=[1000.0], x_e=[0.1],
-                               force_feedback='sensor', force_ramp_time=0.05)
+        cfg = ControllerConfig(model=fmodel, law='force', integral=True, effort_limit=[limit],
+                               law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.1],
+                                           'force_feedback': 'sensor', 'force_ramp_time': 0.05,
+                                           **gain_params(PID.gains(1))})
         core = ControllerCore(cfg)
         x, xd = np.array([0.102]), np.zeros(1)
         core.set_force_reference([2.0])
@@ -1219,8 +1223,10 @@ def test_bad_messages_replayed_against_the_processes():
 # 4. joint_states flood
 # ======================================================================================================
 def test_joint_states_flood_keeps_the_controller_responsive_on_the_newest_state_with_bounded_memory():
-    """A flood process publishes valid joint_states as fast as one publisher can (up to 20 kHz) for 5 s,
-    header.stamp = CLOCK_MONOTONIC at publication. The controller process (wall clock, no bridge) keeps
+    """A flood process publishes valid joint_states as fast as one publisher can (up to 20 kHz),
+    header.stamp = CLOCK_MONOTONIC at publication, for at least 5 s and until the test has seen what it
+    checks happen during the flood (20 commands, 3 /diagnostics, a parameter answer; at most 60 s: a
+    starved controller sees the flood end with fewer). The controller process (wall clock, no bridge) keeps
     answering, always the newest state (the age of the state a command answers stays small: no backlog),
     its /diagnostics timer keeps running, its parameter service answers, its watchdog never trips and its
     resident memory stays bounded."""
@@ -1228,11 +1234,13 @@ def test_joint_states_flood_keeps_the_controller_responsive_on_the_newest_state_
     from sensor_msgs.msg import JointState
     from robot_control.ros import conversions
     from robot_control.ros.qos import CONTROL_QOS
-    dom, seconds = 86, 5.0
+    dom, least, most = 86, 5.0, 60.0
     out_path = os.path.join(LOG_DIR, 'flood.json')
+    stop_path = os.path.join(LOG_DIR, 'flood.stop')
     os.makedirs(LOG_DIR, exist_ok=True)
-    with contextlib.suppress(FileNotFoundError):
-        os.remove(out_path)
+    for path in (out_path, stop_path):
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(path)
     with rh.processes() as procs, rh.ros_test_context(dom) as (ctx, ex):
         mon = rh.Monitor(ctx, POLAR, record=('commands',))
         ex.add_node(mon.node)
@@ -1243,7 +1251,8 @@ def test_joint_states_flood_keeps_the_controller_responsive_on_the_newest_state_
         rss0 = ctrl.rss_kb()
         pub = mon.node.create_publisher(JointState, 'joint_states', CONTROL_QOS)   # for the state after the flood
         flood = rh.NodeProcess(rh.__file__, ['flood', '--domain', str(dom), '--joints', *POLAR,
-                                                      '--seconds', str(seconds), '--rate', '20000', '--out', out_path],
+                                                      '--seconds', str(most), '--rate', '20000', '--out', out_path,
+                                                      '--stop-file', stop_path],
                                dom, LOG_DIR, name='flood')
         procs.append(flood)
         assert spin_until(ex, lambda: len(mon.commands) > 100, 30.0), flood.output()[-2000:]
@@ -1258,8 +1267,15 @@ def test_joint_states_flood_keeps_the_controller_responsive_on_the_newest_state_
             elif pending[0][1].done():
                 param_latency.append(time.monotonic() - pending[0][0])
                 pending[0] = None
-        spin_until(ex, lambda: not flood.alive(), seconds + 20.0, every=0.25, action=sample)
-        assert flood.wait(10.0) == 0, flood.output()[-2000:]
+
+        def seen_enough():
+            now = time.monotonic()
+            return (now - t_start >= least and param_latency
+                    and sum(t_start <= c[1] for c in mon.commands) >= 20
+                    and sum(t_start <= d[1] for d in mon.statuses('rejected inputs')) >= 3)
+        spin_until(ex, lambda: not flood.alive() or seen_enough(), most + 20.0, every=0.25, action=sample)
+        open(stop_path, 'w').close()
+        assert flood.wait(30.0) == 0, flood.output()[-2000:]
         t_end = time.monotonic()
         flood_stats = __import__('json').load(open(out_path))
         during = [c for c in mon.commands if t_start <= c[1] <= t_end]
@@ -1293,7 +1309,8 @@ def test_joint_states_flood_keeps_the_controller_responsive_on_the_newest_state_
         # the newest state, no backlog: answering from a queue, a controller that answers fewer than half of
         # the states would answer ones seconds old by the end of the flood; 0.5 s leaves room for a busy
         # machine's scheduling delays (of both processes) in the age
-        # (the monitor samples the commands, KEEP_LAST 1: a busy machine gives it fewer samples)
+        # (the monitor samples the commands, KEEP_LAST 1: a busy machine gives it fewer samples; the flood ran
+        # until 20 were seen or 60 s passed)
         assert len(during) >= 20 and np.percentile(ages, 95) < 0.5, \
             f'commands answer old states: age p95 {np.percentile(ages, 95):.3f} s ({len(during)} samples)'
         # the /diagnostics timer keeps running: a timer starved by the flood publishes nothing for its 5 s; a
@@ -1301,7 +1318,7 @@ def test_joint_states_flood_keeps_the_controller_responsive_on_the_newest_state_
         gaps = np.diff([t_start, *[t for _, t, _ in diags], t_end])
         assert len(diags) >= 3 and gaps.max() < 2.0, f'{len(diags)} /diagnostics during the flood, gaps up to ' \
             f'{gaps.max():.2f} s'
-        # the parameter service answers during the flood (a starved one would not before the flood ends, 5 s)
+        # the parameter service answers during the flood (a starved one would not before the flood ends)
         assert param_latency and max(param_latency) < 4.0, param_latency
         # the watchdog keeps quiet while states come in: a trip only where the controller answered nothing for
         # state_timeout (0.5 s; stamps = publication times), as when a busy machine starves the flood's

@@ -114,7 +114,8 @@ def test_empty_lists_in_a_file_are_empty(ros_context, tmp_path):
     node = _node_from_file(ros_context, str(path))
     try:
         cfg = node.core.config
-        assert cfg.force_axes == () and cfg.k_e.shape == (0,)
+        task = cfg.control_law.force_task
+        assert task.force_axes == () and task.k_e.shape == (0,)
         assert node.get_parameter('kp').type_ == Parameter.Type.DOUBLE_ARRAY
         np.testing.assert_array_equal(cfg.gains.kp, [36.0] * 7)
     finally:

@@ -21,7 +21,7 @@ def test_every_law_builds_from_its_scenario_with_designed_gains(law):
     scenario = {'force': 'force_1dof', 'hybrid': 'hybrid_cartesian_xy', 'adaptive_computed_torque': 'iiwa'}.get(
         law, 'polar_two_link')
     cfg = ConfigBuilder()(_values(scenario=scenario, law=law))
-    sizes = LAWS[law].servo_sizes(cfg.model, cfg.force_axes)
+    sizes = LAWS[law].servo_sizes(cfg.model, cfg.control_law.force_task.force_axes)
     assert (cfg.gains is None) == (not sizes) and (not sizes or cfg.gains.n == sizes[0])
 
 
@@ -29,7 +29,8 @@ def test_the_lecture_example_designs_kp_36_kv_12():
     cfg = ConfigBuilder()(_values(scenario='polar_two_link'))
     np.testing.assert_array_equal(cfg.gains.kp, [36.0, 36.0])
     np.testing.assert_array_equal(cfg.gains.kv, [12.0, 12.0])
-    assert cfg.model.m == 2.0 and cfg.joints == ('theta1', 'r') and cfg.force_gains is None
+    assert cfg.model.m == 2.0 and cfg.joints == ('theta1', 'r')
+    assert cfg.control_law.force_task.gains is None
 
 
 def test_the_model_is_kept_while_its_parameters_do_not_change():
@@ -64,7 +65,7 @@ def test_hybrid_gains_per_task_axis_or_per_motion_axis():
     base = dict(scenario='hybrid_cartesian_xy', law='hybrid')
     assert ConfigBuilder()(_values(**base)).gains.n == 2
     cfg = ConfigBuilder()(_values(**base, kp=[50.0], kv=[10.0]))
-    assert cfg.gains.n == 1 and cfg.force_gains.n == 1
+    assert cfg.gains.n == 1 and cfg.control_law.force_task.gains.n == 1
 
 
 @pytest.mark.parametrize('changes, name, match', [
@@ -132,6 +133,43 @@ def test_a_law_with_its_own_parameter_is_one_class_and_one_registry_entry(monkey
     assert ConfigBuilder()(_values(scenario='polar_two_link')).law_params is None     # computed torque: none
 
 
+def test_a_law_declaring_the_force_setup_gets_its_rows_once_and_reads_its_values(monkeypatch):
+    """The force setup (laws.force_task.ForceTask) is a part a law declares: its rows are in the law's rows and
+    listed once in the table however many laws declare it; the values reach the law as its force_task, fitted
+    to the model's task axes, and a law without it has no force axes whatever the parameters say."""
+    from robot_control.laws import Law
+    from robot_control.laws.force import ForceParams
+    from robot_control.laws.force_task import PARAM_ROWS, ForceTask
+
+    class Press(Law):
+        """tau = g(q) + J^T f_d on the force axes: a feed-forward press (no servo); its Params: the force law's."""
+        name, tracks, needs_task_space, motion_servo = 'press', 'task', True, False
+        parts, Params = (ForceTask,), ForceParams
+
+        def torque(self, state, ref, err, int_E):
+            return self.model._g(state.q) + state.J[self.force_task.mask].T @ ref.f_d
+
+    force_rows = [row.name for row in PARAM_ROWS]
+    assert Press.uses_force and [row.name for row in Press.all_param_rows()] == force_rows
+    monkeypatch.setitem(LAWS, 'press', Press)
+    rows, _ = params.TABLE.resolve()
+    names = rows.names()
+    assert len(names) == len(set(names)) and set(force_rows) <= set(names)
+    cfg = ConfigBuilder()(_values(scenario='hybrid_cartesian_xyz', law='press', force_axes=['z', 'x'],
+                                  k_e=[3000.0, 1000.0], x_e=[0.5, 0.25], force_feedback='model', force_kp=[30.0, 10.0]))
+    task = cfg.control_law.force_task
+    assert task.force_axes == ('x', 'z') and task.force_feedback == 'model'             # in task-axis order
+    np.testing.assert_array_equal(task.k_e, [1000.0, 3000.0])
+    np.testing.assert_array_equal(task.x_e, [0.25, 0.5])
+    np.testing.assert_array_equal(task.gains.kp, [10.0, 30.0])                           # explicit, with their axes
+    np.testing.assert_array_equal(task.gains.kv, [12.0, 12.0])                           # designed (omega_n 6)
+    np.testing.assert_array_equal(task.mask, [True, False, True])
+    with pytest.raises(ParameterError, match=r"^k_e: expected 2 values"):
+        _values(scenario='hybrid_cartesian_xyz', law='press', force_axes=['z', 'x'], k_e=[1000.0], x_e=[0.5, 0.2])
+    joint = ConfigBuilder()(_values(scenario='hybrid_cartesian_xyz', law='computed_torque'))
+    assert joint.control_law.force_task.force_axes == () and joint.control_law.force_task.gains is None
+
+
 # -- your own arm: the task space by the arm, refusals naming the parameter ------------------------------------
 XARM = dict(model='urdf', urdf='xarm_description/urdf/xarm7.urdf', tip='link7',
             joints=[f'joint{i}' for i in range(1, 8)])
@@ -175,3 +213,11 @@ def test_translational_stiffness_alone_in_a_position_task_space_is_taken():
     cfg = ConfigBuilder()(_values(**SO100, law='impedance', cartesian_stiffness=[500.0, 600.0, 700.0, 0.0, 0.0, 0.0]))
     np.testing.assert_array_equal(cfg.control_law.K, [500.0, 600.0, 700.0])
     assert cfg.control_law.w_max is None                   # explicit: used as given
+
+
+def test_the_control_period_is_the_impedance_law_s_and_caps_its_designed_stiffness():
+    """control_period (the node parameter) reaches the impedance law's parameters: w_max = 0.1 pi / (T max(1, zeta))."""
+    slow = ConfigBuilder()(_values(**SO100, law='impedance', control_period=0.002))
+    assert slow.law_params.control_period == 0.002 and not hasattr(slow, 'control_period')
+    assert slow.control_law.w_max == pytest.approx(0.1 * np.pi / 0.002)
+    assert ConfigBuilder()(_values(**SO100, law='impedance')).control_law.w_max == pytest.approx(0.1 * np.pi / 0.001)

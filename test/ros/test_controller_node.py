@@ -457,14 +457,15 @@ def test_a_big_endian_wrench_is_used_like_a_little_endian_one(ros_context):
 
 def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_never_is(ros_context):
     """Once wrenches carry the stamps of the states (a tick answered with its own wrench), a state whose
-    wrench is still on its way waits for it (at most WRENCH_WAIT); a stream without those stamps does not.
+    wrench is still on its way waits for it (at most wrench_wait); a stream without those stamps does not.
 
     Each step waits on what the controller did (the state held for its wrench, or answered at once), not
     on a few ms of wall time: the wrench that comes late is published once the state is seen held."""
-    from robot_control.ros.controller_session import WRENCH_WAIT
     params, joints, q0, make_expected, _ = LAW_CASES['hybrid_sensor']
     expected_law = make_expected(False)
     with rig(ros_context, **params) as (ex, ctrl, robot):
+        wrench_wait = ctrl.get_parameter('wrench_wait').value
+        assert wrench_wait == 0.005
         assert spin_until(ex, lambda: robot.ft_pub.get_subscription_count() >= 1)
         pairing = lambda: ctrl.session.controller._pairing          # noqa: E731
         answered = lambda stamp: all(stamp in s for s in (robot.commands, robot.references, robot.errors))  # noqa
@@ -497,8 +498,8 @@ def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_ne
         state(stamp)
         assert used_force(stamp, ([2.0, 0.0],)) == [2.0, 0.0]
         wrench_taken(stamp)                                          # the stream is paired
-        # the wrench comes after its state: held, then answered with it once it comes within WRENCH_WAIT. A
-        # machine too busy to hand it over within WRENCH_WAIT sees the wait end first (the old force): the
+        # the wrench comes after its state: held, then answered with it once it comes within wrench_wait. A
+        # machine too busy to hand it over within wrench_wait sees the wait end first (the old force): the
         # tick is tried again, a few times, with the next stamp
         for attempt in range(5):
             stamp += DT_NS
@@ -509,18 +510,53 @@ def test_a_paired_wrench_that_comes_late_is_waited_for_and_an_unpaired_stream_ne
             if force == [3.0, 0.0]:
                 break
         assert force == [3.0, 0.0], 'a held state was never answered with the wrench that came for it'
-        # its wrench does not come: held for WRENCH_WAIT, answered with the force it has (a lower bound on
+        # its wrench does not come: held for wrench_wait, answered with the force it has (a lower bound on
         # the wait: load only makes it longer); a wrench stamped 0 comes after, and unpairs the stream
         stamp += DT_NS
         t0 = time.monotonic()
         assert state(stamp)
         assert used_force(stamp, ([3.0, 0.0],)) == [3.0, 0.0]
-        assert time.monotonic() - t0 >= WRENCH_WAIT
+        assert time.monotonic() - t0 >= wrench_wait
         wrench([4.0, 0.0], 0)
         wrench_taken(0)
         stamp += DT_NS                                               # unpaired stream: answered at once
         assert not state(stamp), 'a state of an unpaired stream was held for a wrench'
         assert used_force(stamp, ([4.0, 0.0],)) == [4.0, 0.0]
+
+
+def test_with_wrench_wait_0_a_state_waits_for_its_own_wrench_however_late_it_comes(ros_context):
+    """wrench_wait 0 (the demo's lockstep runs): a state of paired streams is answered only with the wrench of its
+    own tick, also when that comes 20x the default wait later and the state was re-published meanwhile (a lockstep
+    simulator does so after lockstep_timeout without an answer)."""
+    params, joints, q0, _, _ = LAW_CASES['hybrid_sensor']
+    with rig(ros_context, **params, wrench_wait=0.0) as (ex, ctrl, robot):
+        assert spin_until(ex, lambda: robot.ft_pub.get_subscription_count() >= 1)
+        pairing = lambda: ctrl.session.controller._pairing          # noqa: E731
+
+        def wrench(f_x, stamp):
+            robot.ft_pub.publish(cv.wrench_along(('x', 'y', 'z'), [f_x, 0.0, 0.0], stamp_ns=stamp))
+            assert spin_until(ex, lambda: pairing().wrench_ns == stamp), f'wrench {stamp} not taken'
+
+        def state(stamp):
+            robot.state_pub.publish(robot.state(joints, q0, np.zeros(2), stamp))
+
+        wrench(2.0, T0_NS)                                           # tick 0: paired from here on
+        state(T0_NS)
+        assert spin_until(ex, lambda: T0_NS in robot.commands)
+        stamp = T0_NS + DT_NS
+        state(stamp)
+        assert spin_until(ex, lambda: pairing().held is not None and pairing().held[0] == stamp)
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 0.1:                           # 20x the default wrench_wait
+            ex.spin_once(timeout_sec=0.01)
+        state(stamp)                                                 # re-published: still waiting
+        t0 = time.monotonic()        # (a machine too busy to deliver it within 0.1 s passes here without it)
+        while time.monotonic() - t0 < 0.1:
+            ex.spin_once(timeout_sec=0.01)
+        assert stamp not in robot.commands and pairing().held[0] == stamp
+        wrench(3.0, stamp)
+        assert spin_until(ex, lambda: stamp in robot.commands)
+        assert pairing().held is None and pairing().last_state_ns == stamp
 
 
 # -- 3. parameters ---------------------------------------------------------------------------------------
@@ -682,6 +718,19 @@ def test_switching_law_and_gains_at_run_time_is_bumpless(ros_context):
         assert result.successful                                                # exactly the PD law
         after, ref, _ = robot.step(ex, POLAR_JOINTS, q, qd, T0_NS + 201 * DT_NS)
         np.testing.assert_allclose(after[3], independent_joint(q, qd, ref[1], ref[2], gains), rtol=0, atol=1e-12)
+
+
+def test_a_switch_to_a_force_law_takes_the_force_reference_of_f_d(ros_context):
+    """The force axes belong to the law's force setup: a joint law has none, so f_d waits for the switch to
+    hybrid, which starts its force reference from it (ramping from the force measured at the switch)."""
+    with rig(ros_context, scenario='hybrid_cartesian_xy', law='computed_torque', force_feedback='model', f_d=[5.0],
+             force_ramp_time=0.0, effort_limits=[200.0, 200.0]) as (ex, ctrl, robot):
+        robot.step(ex, ['x', 'y'], [0.3002, 0.1], [0.0, 0.0], T0_NS)
+        assert ctrl.core.force_target.tolist() == []
+        assert ctrl.set_parameters([Parameter('law', value='hybrid')])[0].successful
+        assert ctrl.core.force_target.tolist() == [5.0]
+        _, ref, _ = robot.step(ex, ['x', 'y'], [0.3002, 0.1], [0.0, 0.0], T0_NS + DT_NS)
+        assert ref[0] == ('x', 'y') and ref[1][0] == 5.0
 
 
 def test_q_d_parameter_moves_the_reference_from_the_current_one(ros_context):

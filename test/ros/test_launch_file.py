@@ -16,6 +16,7 @@ import yaml
 
 from robot_control import scenarios
 from sim_bridge.bridge_params import MODES
+from sim_bridge.engines import ENGINES
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LAUNCH_FILE = os.path.join(ROOT, 'launch', 'scenario.launch.py')
@@ -45,13 +46,14 @@ def _constant(name):
 
 
 def _arguments():
-    """{name: {'default_value': ..., 'choices': ...}} of the DeclareLaunchArgument calls (literals only)."""
+    """{name: {'default_value': ..., 'choices': ...}} of the DeclareLaunchArgument calls (literals; choices given as
+    a name: the name)."""
     out = {}
     for call in _calls('DeclareLaunchArgument'):
         name = ast.literal_eval(call.args[0])
         kw = _keywords(call)
         out[name] = {k: ast.literal_eval(v) for k, v in kw.items()
-                     if k in ('default_value', 'choices') and not isinstance(v, ast.Name)}
+                     if k in ('default_value', 'choices') and isinstance(v, (ast.Constant, ast.List))}
         if isinstance(kw.get('choices'), ast.Name):
             out[name]['choices'] = kw['choices'].id
     return out
@@ -65,10 +67,21 @@ def _nodes():
 
 def test_it_declares_the_documented_arguments_with_their_defaults():
     args = _arguments()
-    assert set(args) == {'scenario', 'params_file', 'mode', 'namespace', 'gui', 'use_sim_time'}
-    assert {k: v['default_value'] for k, v in args.items()} == {
+    assert set(args) == {'scenario', 'params_file', 'mode', 'namespace', 'gui', 'engine', 'use_sim_time'}
+    assert {k: v.get('default_value') for k, v in args.items() if k != 'engine'} == {
         'scenario': '', 'params_file': '', 'mode': 'realtime', 'namespace': '', 'gui': 'false',
         'use_sim_time': 'true'}
+
+
+def test_engine_choices_are_the_bridges_engines_pybullet_the_default():
+    """engine:= takes the bridge's engines (sim_bridge.engines.ENGINES); its default is ENGINES[0], pybullet, and the
+    bridge node is given it (parameters=[*files, {..., 'engine': ...}])."""
+    assert _constant('ENGINES') == list(ENGINES) and ENGINES[0] == 'pybullet'
+    [engine] = [c for c in _calls('DeclareLaunchArgument') if ast.literal_eval(c.args[0]) == 'engine']
+    kw = _keywords(engine)
+    assert ast.unparse(kw['default_value']) == 'ENGINES[0]' and ast.unparse(kw['choices']) == 'ENGINES'
+    [bridge] = [c for c in _calls('Node') if ast.literal_eval(_keywords(c)['executable']) == 'sim_bridge_node']
+    assert 'engine' in [ast.literal_eval(k) for k in _keywords(bridge)['parameters'].elts[-1].keys]
 
 
 def test_mode_choices_are_the_bridge_modes_and_booleans_are_true_or_false():

@@ -18,30 +18,11 @@ from robot_control.gains import ServoGains
 from robot_control.laws import computed_torque
 from robot_control.models import for_scenario
 from robot_control.validation import ArgumentError
-from sim_bridge.engines import ENGINES, make_world
+from sim_bridge.engines import make_world
 
 DT = 0.001
 MOVES = {'iiwa': (np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0]), np.array([0.4, 0.8, -0.3, -0.9, 0.3, 0.7, 0.2])),
          'polar_two_link': (np.array([0.0, 0.5]), np.array([0.8, 0.8]))}
-
-
-@pytest.fixture(params=ENGINES)
-def engine(request):
-    """The engine name; every test using it runs on each engine."""
-    return request.param
-
-
-@pytest.fixture
-def world_on(engine):
-    """World factory on the fixture's engine; its worlds are closed after the test."""
-    worlds = []
-
-    def factory(*args, **kwargs):
-        worlds.append(make_world(engine, *args, **kwargs))
-        return worlds[-1]
-    yield factory
-    for w in worlds:
-        w.close()
 
 
 def quintic(q0, q1, T, t):
@@ -155,23 +136,17 @@ def test_an_unknown_engine_is_named():
     assert err.value.name == 'engine'
 
 
-def test_the_mujoco_world_refuses_a_surface():
-    with pytest.raises(ArgumentError) as err:
-        make_world('mujoco', 'iiwa')                     # the scenario's table
-    assert err.value.name == 'surface'
-
-
-def test_friction_on_the_mujoco_engine_is_refused_before_it_is_applied():
-    """Joint friction and armature exist on the pybullet engine only: the parameter build refuses them on
-    mujoco (at start-up and for a run-time set, before the commit), and the MuJoCo world itself too."""
-    import pytest
-    from robot_control.validation import ArgumentError
-    from sim_bridge import bridge_params
-    from sim_bridge.mujoco_world import MujocoWorld
-    with pytest.raises(ArgumentError) as err:
-        bridge_params.validate(bridge_params.defaults('polar_two_link', engine='mujoco',
-                                                      **{'friction.coulomb': [0.5, 0.0]}))
-    assert err.value.name == 'friction.coulomb'
-    assert bridge_params.validate(bridge_params.defaults('polar_two_link', engine='mujoco')).friction.active is False
-    with pytest.raises(ArgumentError, match='pybullet engine only'):
-        MujocoWorld('polar_two_link', friction={'armature': [0.1, 0.0]})
+def test_a_heavier_robot_is_the_same_on_both_engines():
+    """mass_scale 1.4 and inertia_scale 1.2 on every iiwa link (sim_bridge.true_robot, the `sim.*` parameters):
+    one step from rest under the nominal model's g(q) is the same on both engines (1e-9 relative), and unlike
+    the nominal robot's (it sags)."""
+    params = {'mass_scale': np.full(7, 1.4), 'inertia_scale': np.full(7, 1.2)}
+    g = for_scenario('iiwa').g(MOVES['iiwa'][0])
+    qd = {}
+    for engine, p in (('pybullet', params), ('mujoco', params), ('nominal', None)):
+        with make_world('mujoco' if engine == 'nominal' else engine, 'iiwa', surface=False, params=p) as world:
+            world.hold_torque(g)
+            world.step()
+            qd[engine] = world.state()[1]
+    np.testing.assert_allclose(qd['mujoco'], qd['pybullet'], rtol=1e-9, atol=1e-9 * np.abs(qd['pybullet']).max())
+    assert np.abs(qd['nominal']).max() < 1e-9 < 1e-3 * np.abs(qd['mujoco']).max()

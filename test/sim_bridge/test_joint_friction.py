@@ -1,5 +1,6 @@
 """Joint friction and armature of the simulated robot (sim_bridge.joint_friction through the World),
-measured against the equations of its docstring.
+measured against the equations of its docstring, on both engines (the world_on fixture) but where PyBullet's
+own mechanism is the point (joint damping, its tip force).
 
 Figures asserted: a joint held by less than its Coulomb torque moves < 1e-9 in 1 s (single link; the iiwa,
 every joint at once; every scenario in 0.5 s); above it qdd = (tau - g - F_c sign) / (M_ii + I_a) within 1e-9
@@ -11,36 +12,27 @@ systems; pressed on a surface, the contact balances the push within the Coulomb 
 the brakes hold whatever the friction.
 """
 import numpy as np
-import pybullet as p
 import pytest
 
 from robot_control import scenarios
+from robot_control.models import for_scenario
 from robot_control.validation import ArgumentError
 from sim_bridge import bridge_params, physics_check
-from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_torque
+from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_sets, coulomb_torque
 
 DT = 0.001
 IIWA_COULOMB = (1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5)
 
 
-def _state(world):
-    """(every movable joint's position, in PyBullet's degree-of-freedom order; the controlled joints' places in it)."""
-    movable = physics_check.movable_joints(world.client, world.body)
-    q = [s[0] for s in p.getJointStates(world.body, list(movable.values()), physicsClientId=world.client)]
-    return q, [list(movable).index(name) for name in world.joint_names]
+def g_of(world):
+    """g(q) of the controlled joints at the current state, the controller's model of the scenario (Pinocchio on
+    the URDF for the arms: both engines agree with it to 1e-13)."""
+    return for_scenario(world.scenario.name).g(world.state()[0])
 
 
-def g_now(world):
-    """PyBullet's g of the controlled joints at the current state (other movable joints held where they are)."""
-    q, dof = _state(world)
-    z = [0.0] * len(q)
-    return np.array(p.calculateInverseDynamics(world.body, q, z, z, physicsClientId=world.client))[dof]
-
-
-def M_now(world):
-    """The controlled joints' block of PyBullet's M at the current state."""
-    q, dof = _state(world)
-    return np.array(p.calculateMassMatrix(world.body, q, physicsClientId=world.client))[np.ix_(dof, dof)]
+def M_of(world):
+    """M(q) of the controlled joints at the current state, the controller's model of the scenario."""
+    return for_scenario(world.scenario.name).M(world.state()[0])
 
 
 def acceleration(world, tau, steps=1):
@@ -53,22 +45,22 @@ def acceleration(world, tau, steps=1):
 
 # -- Coulomb friction and stiction -------------------------------------------------------------------------
 @pytest.mark.parametrize('below', [0.9, -0.9, 0.0])
-def test_a_joint_held_by_less_than_its_coulomb_torque_stays_at_rest(make_world, below):
+def test_a_joint_held_by_less_than_its_coulomb_torque_stays_at_rest(world_on, below):
     fc = 3.0
-    world = make_world('single_link', q0=(0.4,), friction={'coulomb': [fc]})
+    world = world_on('single_link', q0=(0.4,), friction={'coulomb': [fc]})
     q0 = world.state()[0]
-    world.set_torque(g_now(world) + below * fc)
+    world.set_torque(g_of(world) + below * fc)
     world.step(1000)
     assert np.abs(world.state()[0] - q0).max() < 1e-9
 
 
-def test_every_iiwa_joint_sticks_at_once_below_its_coulomb_torque(make_world):
+def test_every_iiwa_joint_sticks_at_once_below_its_coulomb_torque(world_on):
     """Coupled joints: the holding torques of all seven are solved together (drift < 1e-9 in 1 s); without
     friction the same torque moves the arm."""
     fc = np.array(IIWA_COULOMB)
-    world = make_world('iiwa', surface=False, friction={'coulomb': fc})
+    world = world_on('iiwa', surface=False, friction={'coulomb': fc})
     q0 = world.state()[0]
-    tau = g_now(world) + 0.9 * fc * np.array([1, -1, 1, -1, 1, -1, 1])
+    tau = g_of(world) + 0.9 * fc * np.array([1, -1, 1, -1, 1, -1, 1])
     world.set_torque(tau)
     world.step(1000)
     assert np.abs(world.state()[0] - q0).max() < 1e-9
@@ -78,10 +70,10 @@ def test_every_iiwa_joint_sticks_at_once_below_its_coulomb_torque(make_world):
 
 
 @pytest.mark.parametrize('armature', [0.0, 0.5])
-def test_above_the_breakaway_the_acceleration_is_net_force_over_mass(make_world, armature):
+def test_above_the_breakaway_the_acceleration_is_net_force_over_mass(world_on, armature):
     """force_1dof (m = 1 kg, prismatic, no gravity along x): qdd = (u - F_c sign(u)) / (m + I_a), both ways."""
     fc, m = 2.0, 1.0
-    world = make_world('force_1dof', surface=False, q0=(0.0,), friction={'coulomb': [fc], 'armature': [armature]})
+    world = world_on('force_1dof', surface=False, q0=(0.0,), friction={'coulomb': [fc], 'armature': [armature]})
     for u in (5.0, -5.0):
         world.reset()
         world.step()                    # at rest, stuck: the first step breaks away
@@ -90,16 +82,16 @@ def test_above_the_breakaway_the_acceleration_is_net_force_over_mass(make_world,
         assert a[0] == pytest.approx(expected, rel=1e-9)
 
 
-def test_a_sliding_single_link_feels_coulomb_against_its_motion(make_world):
+def test_a_sliding_single_link_feels_coulomb_against_its_motion(world_on):
     """qdd = (tau - g - F_c sign(qd)) / (M + I_a) at each step of a swing (1e-9 relative; M, g at the step's start)."""
     fc, ia = 0.5, 0.05
-    world = make_world('single_link', q0=(0.3,), friction={'coulomb': [fc], 'armature': [ia]})
+    world = world_on('single_link', q0=(0.3,), friction={'coulomb': [fc], 'armature': [ia]})
     world.set_torque([0.0])
     world.step(50)                      # swinging down
     for _ in range(5):
         qd = world.state()[1]
         assert abs(qd[0]) > 0.1
-        expected = (0.0 - g_now(world)[0] - fc * np.sign(qd[0])) / (M_now(world)[0, 0] + ia)
+        expected = (0.0 - g_of(world)[0] - fc * np.sign(qd[0])) / (M_of(world)[0, 0] + ia)
         assert acceleration(world, [0.0])[0] == pytest.approx(expected, rel=1e-9)
 
 
@@ -122,6 +114,26 @@ def test_coulomb_torque_satisfies_complementarity_on_coupled_systems():
         assert np.all(f[fc == 0] == 0)
 
 
+def test_the_solver_started_from_any_sets_finds_the_same_friction_to_the_bit():
+    """coulomb_sets started from random active sets (the World starts each step from the last step's) ends at
+    the f and qd+ of the first guess, bit for bit (the solution is unique, its sets decide it); started from the
+    sets it ended with, it ends with those sets and the same f."""
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        n = int(rng.integers(1, 8))
+        a = rng.normal(size=(n, n))
+        A = a @ a.T + 0.05 * np.eye(n)
+        b = A @ (rng.normal(size=n) * 0.01) / DT + rng.normal(size=n)
+        fc = rng.uniform(0.0, 2.0, n) * (rng.uniform(size=n) > 0.2)
+        f, v = coulomb_torque(A, b, DT, fc)
+        start = ((rng.uniform(size=n) < 0.5) & (fc > 0), rng.choice([-1.0, 1.0], n))
+        f_started, v_started, sets = coulomb_sets(A, b, DT, fc, start)
+        assert np.array_equal(f_started, f) and np.array_equal(v_started, v)
+        if sets is not None:
+            again = coulomb_sets(A, b, DT, fc, sets)
+            assert np.array_equal(again[0], f) and np.array_equal(again[2][0], sets[0])
+
+
 def test_the_fallback_solver_finds_the_same_friction():
     """coulomb_torque's fallback (projected Gauss-Seidel, for active sets that would not settle) agrees with
     the active sets on random coupled systems (1e-9 of F_c)."""
@@ -138,11 +150,11 @@ def test_the_fallback_solver_finds_the_same_friction():
 
 
 # -- viscous friction --------------------------------------------------------------------------------------
-def test_viscous_friction_decays_a_free_velocity_exponentially(make_world):
+def test_viscous_friction_decays_a_free_velocity_exponentially(world_on):
     """force_1dof, m = 1 kg, b = 0.5 N s/m: qd_k = qd_0 (1 - b dt / m)^k (semi-implicit Euler of
     m qdd = -b qd), exp(-b t / m) within 1e-3 over 2 s."""
     b, m = 0.5, 1.0
-    world = make_world('force_1dof', surface=False, q0=(0.0,), friction={'viscous': [b]})
+    world = world_on('force_1dof', surface=False, q0=(0.0,), friction={'viscous': [b]})
     world.set_torque([1.0])
     world.step(100)
     world.set_torque([0.0])
@@ -153,11 +165,12 @@ def test_viscous_friction_decays_a_free_velocity_exponentially(make_world):
     assert v / v0 == pytest.approx(np.exp(-b * 2.0 / m), rel=1e-3)
 
 
-def test_viscous_friction_is_the_torque_minus_b_qd(make_world):
-    """PyBullet's joint damping equals an applied -b qd step by step (bit-identical), on the iiwa."""
+def test_viscous_friction_is_the_torque_minus_b_qd(world_on):
+    """The viscous friction equals an applied -b qd step by step (bit-identical), on the iiwa (PyBullet: its joint
+    damping)."""
     b = np.full(7, 0.5)
-    damped = make_world('iiwa', surface=False, friction={'viscous': b})
-    applied = make_world('iiwa', surface=False)
+    damped = world_on('iiwa', surface=False, friction={'viscous': b})
+    applied = world_on('iiwa', surface=False)
     for _ in range(300):
         applied.set_torque(-b * applied.state()[1])
         damped.step()
@@ -167,68 +180,71 @@ def test_viscous_friction_is_the_torque_minus_b_qd(make_world):
 
 
 # -- armature ----------------------------------------------------------------------------------------------
-def test_armature_adds_to_the_diagonal_of_the_mass_matrix(make_world):
+def test_armature_adds_to_the_diagonal_of_the_mass_matrix(world_on):
     """iiwa at rest, armature 0.1 kg m^2 per joint: qdd = (M + I_a)^-1 (tau - g) (1e-9 relative), unlike
     M^-1 (tau - g)."""
     ia = np.full(7, 0.1)
-    world = make_world('iiwa', surface=False, friction={'armature': ia})
+    world = world_on('iiwa', surface=False, friction={'armature': ia})
     q0 = world.state()[0]
-    tau = g_now(world) + np.array([2.0, -1.0, 1.5, 1.0, -0.5, 0.3, 0.2])
-    expected = np.linalg.solve(M_now(world) + np.diag(ia), tau - g_now(world))
-    without = np.linalg.solve(M_now(world), tau - g_now(world))
+    tau = g_of(world) + np.array([2.0, -1.0, 1.5, 1.0, -0.5, 0.3, 0.2])
+    expected = np.linalg.solve(M_of(world) + np.diag(ia), tau - g_of(world))
+    without = np.linalg.solve(M_of(world), tau - g_of(world))
     a = acceleration(world, tau)
     np.testing.assert_allclose(a, expected, rtol=1e-9, atol=1e-9)
     assert np.abs(a - without).max() > 0.1 * np.abs(without).max()
 
 
-def test_armature_holds_under_a_cartesian_disturbance(make_world):
+def test_armature_holds_under_a_cartesian_disturbance(world_on):
     """iiwa held by g(q), armature 0.1: a force at the tip accelerates the arm as (M + I_a)^-1 J^T F
     (within 1e-3 rad/s^2: PyBullet's own tip force differs from J^T F by 5e-4 rad/s^2 on joint 7 without
     armature too)."""
     ia = np.full(7, 0.1)
     force = np.array([0.0, 20.0, -10.0])
-    world = make_world('iiwa', surface=False, friction={'armature': ia}, disturbance={'cartesian_force': force})
-    q0, z = world.state()[0], [0.0] * 7
-    J = np.array(p.calculateJacobian(world.body, 6, [0.0] * 3, list(q0), z, z, physicsClientId=world.client)[0])
-    expected = np.linalg.solve(M_now(world) + np.diag(ia), J.T @ force)
-    without = np.linalg.solve(M_now(world), J.T @ force)
-    a = acceleration(world, g_now(world))
+    world = world_on('iiwa', surface=False, friction={'armature': ia}, disturbance={'cartesian_force': force})
+    J = for_scenario('iiwa').J(world.state()[0])
+    expected = np.linalg.solve(M_of(world) + np.diag(ia), J.T @ force)
+    without = np.linalg.solve(M_of(world), J.T @ force)
+    a = acceleration(world, g_of(world))
     np.testing.assert_allclose(a, expected, rtol=1e-4, atol=1e-3)
     assert np.abs(a - without).max() > 0.1 * np.abs(without).max()
 
 
 @pytest.mark.parametrize('name', tuple(scenarios.SCENARIOS))
-def test_every_scenario_sticks_and_carries_its_armature(make_world, name):
+def test_every_scenario_sticks_and_carries_its_armature(world_on, name):
     """Every robot (closed forms through their generated URDFs, iiwa, Panda, UR5): held at 0.8 F_c (alternating
     signs) it moves < 1e-9 in 0.5 s; with armature 0.2 its acceleration is (M + I_a)^-1 (tau - g) within 1e-4
     relative (the Panda's fingers, held by position motors, couple in at 8e-6; the others agree to 2e-14)."""
     n = len(scenarios.get(name).joints)
-    stuck = make_world(name, surface=False, friction={'coulomb': np.full(n, 2.0)})
-    q0, g = stuck.state()[0], g_now(stuck)
+    stuck = world_on(name, surface=False, friction={'coulomb': np.full(n, 2.0)})
+    q0, g = stuck.state()[0], g_of(stuck)
     stuck.set_torque(g + 1.6 * np.where(np.arange(n) % 2, 1.0, -1.0))
     stuck.step(500)
     assert np.abs(stuck.state()[0] - q0).max() < 1e-9
     ia = np.full(n, 0.2)
-    world = make_world(name, surface=False, friction={'armature': ia})
-    expected = np.linalg.solve(M_now(world) + np.diag(ia), np.ones(n))
+    world = world_on(name, surface=False, friction={'armature': ia})
+    expected = np.linalg.solve(M_of(world) + np.diag(ia), np.ones(n))
     np.testing.assert_allclose(acceleration(world, g + 1.0), expected, rtol=1e-4, atol=1e-4 * np.abs(expected).max())
 
 
 @pytest.mark.parametrize('friction,band', [({'viscous': [5.0], 'armature': [0.5]}, 1e-3),
                                            ({'coulomb': [0.5], 'viscous': [5.0], 'armature': [0.5]}, 0.5)])
-def test_pressed_on_the_surface_the_contact_balances_the_push(make_world, friction, band):
-    """force_1dof pushing with u = 20 N on its wall (k_e = 1000 N/m): at rest after 6 s, the contact force is
-    u within the Coulomb band (1e-3 N without Coulomb friction). The armature's torque -I_a qdd follows the
-    acceleration the contact allows (PyBullet's constraint torque of the last step, carried into the next)."""
-    world = make_world('force_1dof', friction=friction)
+def test_pressed_on_the_surface_the_contact_balances_the_push(world_on, friction, band):
+    """force_1dof pushing with u = 20 N on its wall (k_e = 1000 N/m): at rest (within 20 s; PyBullet's implicit
+    contact is at rest after 6 s, MuJoCo's explicit spring, damped by b alone, decays as exp(-b t / 2 (m + I_a))),
+    the contact force is u within the Coulomb band (1e-3 N without Coulomb friction). The armature's torque
+    -I_a qdd follows the acceleration the contact allows (PyBullet's constraint torque of the last step, carried
+    into the next; MuJoCo's contact force is known in the step)."""
+    world = world_on('force_1dof', friction=friction)
     world.set_torque([20.0])
     world.step(6000)
+    while abs(world.state()[1][0]) >= 1e-5 and world.t < 20.0:
+        world.step(1000)
     assert abs(world.state()[1][0]) < 1e-5
     assert abs(world.contact_wrench()[0][0] - 20.0) <= band
 
 
-def test_the_brakes_hold_whatever_the_friction_and_armature(make_world):
-    world = make_world('iiwa', surface=False, friction={'coulomb': IIWA_COULOMB, 'armature': np.full(7, 0.1)})
+def test_the_brakes_hold_whatever_the_friction_and_armature(world_on):
+    world = world_on('iiwa', surface=False, friction={'coulomb': IIWA_COULOMB, 'armature': np.full(7, 0.1)})
     q0 = world.state()[0]
     world.brake(True)
     world.set_torque(np.full(7, 50.0))
@@ -240,8 +256,8 @@ def test_the_brakes_hold_whatever_the_friction_and_armature(make_world):
 
 
 # -- the World's interface -----------------------------------------------------------------------------------
-def test_friction_survives_reset_and_changes_at_run_time(make_world):
-    world = make_world('force_1dof', surface=False, q0=(0.0,), friction={'coulomb': [2.0]})
+def test_friction_survives_reset_and_changes_at_run_time(world_on):
+    world = world_on('force_1dof', surface=False, q0=(0.0,), friction={'coulomb': [2.0]})
     world.set_torque([1.5])
     world.step(100)
     world.reset()
@@ -254,6 +270,33 @@ def test_friction_survives_reset_and_changes_at_run_time(make_world):
     assert world.friction.coulomb.tolist() == [1.0] and world.friction.armature.tolist() == [0.0]
     world.step(100)
     assert world.state()[0][0] > 0.0
+
+
+def test_a_step_prepared_ahead_is_the_same_step_to_the_bit(world_on):
+    """World.prepare between steps (the bridge's call once a state is published) changes nothing: the iiwa with
+    Coulomb friction, viscous friction and armature, sticking and slipping, pushed at the tip, braked and
+    released, its friction changed after a prepare, follows the same trajectory bit for bit as without."""
+    friction = {'coulomb': [1.8, 1.8, 1.0, 1.0, 0.63, 0.23, 0.23], 'viscous': [0.17, 0.17, 0.09, 0.09, 0.06, 0.02, 0.02],
+                'armature': [0.1] * 7}
+    worlds = [world_on('iiwa', friction=friction) for _ in range(2)]
+    amplitude = np.array([3.0, 6.0, 2.0, 4.0, 1.0, 0.5, 0.4])
+    runs = [[], []]
+    for k in range(1200):
+        for world, run in zip(worlds, runs):
+            if k == 300:
+                world.set_disturbance(cartesian_force=[0.0, 5.0, -20.0])
+            if k == 500:
+                world.brake(True)
+            if k == 550:
+                world.brake(False)
+            if k == 700:
+                world.set_friction({**friction, 'coulomb': [0.5] * 7})
+            world.set_torque(g_of(world) + amplitude * np.sin(0.01 * k * np.arange(1, 8)) * (1 + k // 200 % 2))
+            world.step()
+            if world is worlds[1]:
+                world.prepare()
+            run.append(np.concatenate([*world.state()[:2], world.joint_friction_torque()]))
+    assert np.array_equal(np.array(runs[0]), np.array(runs[1]))
 
 
 @pytest.mark.parametrize('friction,name', [({'coulomb': [-1.0]}, 'friction.coulomb'),

@@ -1,6 +1,6 @@
 """The robot's driver (sim_bridge.sensors) over a real World: noise statistics, encoder counts, the link-side
 joint torque, the F/T sensor's bias and noise, measurement and actuation delays through the bridge's loop
-(sim_bridge.bridge_loop), and one seed -> one bit-identical run."""
+(sim_bridge.bridge_loop), and one seed -> one bit-identical run; on each engine (the `engine` fixture)."""
 import numpy as np
 import pytest
 
@@ -8,7 +8,7 @@ from robot_control.models import make_model
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import make_loop
 from sim_bridge.sensors import Driver, Sensors, encoder_counts
-from sim_bridge.world import World
+from sim_bridge.engines import make_world
 
 MS = 1_000_000
 POLAR = make_model('polar_two_link', m=2.0, gravity=9.8)
@@ -23,8 +23,8 @@ def sensor_model(**params):
 
 
 @pytest.fixture
-def world():
-    w = World('polar_two_link')
+def world(engine):
+    w = make_world(engine, 'polar_two_link')
     yield w
     w.close()
 
@@ -109,12 +109,12 @@ def test_effort_is_the_applied_torque_without_a_friction_model(world):
     np.testing.assert_allclose(effort, np.tile(POLAR.g(Q0), (50, 1)), rtol=1e-12)
 
 
-def test_effort_is_the_motor_torque_less_friction_and_rotor_inertia():
+def test_effort_is_the_motor_torque_less_friction_and_rotor_inertia(engine):
     """A link-side torque sensor: held at rest by stiction, the link needs g(q0) whatever the motor gives
     within the breakaway band, so the effort reads g(q0) while the motor applies g(q0) + 0.3; slipping at
     speed under Coulomb and viscous friction and armature it reads tau_motor - (F_c sign(qd) + b qd + I_a qdd)."""
     friction = {'coulomb': [1.0, 1.0], 'viscous': [0.0, 0.0], 'armature': [0.0, 0.0]}
-    with World('polar_two_link', q0=Q0, friction=friction) as w:
+    with make_world(engine, 'polar_two_link', q0=Q0, friction=friction) as w:
         driver = Driver(w, sensor_model(), MS)
         assert driver.measured is not w                          # the friction model alone turns the sensor on
         motor = POLAR.g(Q0) + 0.3
@@ -126,7 +126,7 @@ def test_effort_is_the_motor_torque_less_friction_and_rotor_inertia():
         np.testing.assert_allclose(effort, POLAR.g(Q0), atol=1e-9)
         assert w.state()[2].tolist() == motor.tolist()          # the motor torque the World reports
     friction = {'coulomb': [0.5, 0.0], 'viscous': [0.2, 0.0], 'armature': [0.3, 0.0]}
-    with World('polar_two_link', q0=Q0, friction=friction) as w:
+    with make_world(engine, 'polar_two_link', q0=Q0, friction=friction) as w:
         driver = Driver(w, sensor_model(), MS)
         motor = POLAR.g(Q0) + np.array([3.0, 0.0])
         w.hold_torque(motor)
@@ -167,13 +167,13 @@ class Recorder:
 
 
 @pytest.fixture
-def loop():
+def loop(engine):
     """loop(**parameters) -> (a started loop over a polar_two_link World, its Recorder)."""
     worlds = []
 
     def make(**params):
-        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', **params))
-        worlds.append(World('polar_two_link', dt=cfg.physics_step))
+        cfg = bridge_params.validate(bridge_params.defaults('polar_two_link', engine=engine, **params))
+        worlds.append(make_world(engine, 'polar_two_link', dt=cfg.physics_step))
         rec = Recorder(worlds[-1])
         rec.loop = make_loop(worlds[-1], cfg, publish_state=rec.publish_state, count_publishers=lambda: [1, 0],
                              publish_diagnostics=lambda: None, log=lambda level, text: None, clock=lambda: rec.now,
@@ -273,6 +273,33 @@ def test_one_seed_gives_bit_identical_published_streams_and_another_seed_others(
     assert first.tobytes() == again.tobytes()
     assert np.abs(first - other).max() > 1e-3
     assert noisy_run(loop, 7, reset=True).tobytes() == first.tobytes()       # reset restarts every stream
+
+
+def test_noise_drawn_ahead_between_ticks_is_the_same_noise():
+    """Sensors.prepare (the bridge's call once a state is published) draws the next measurement's noise ahead:
+    prepared on some ticks, twice on some, not on others, and restarted after a prepare, the published streams are
+    the same bit for bit as without."""
+    model = sensor_model(**{k: v for k, v in NOISY.items() if not k.startswith('delay')})
+    runs = []
+    for ahead in (False, True):
+        world = make_world('pybullet', 'polar_two_link')
+        try:
+            sensors = Sensors(world, model, MS)
+            world.hold_torque(POLAR.g(Q0) + 0.5)
+            rows = []
+            for k in range(300):
+                if ahead and k % 3:
+                    for _ in range(k % 3):
+                        sensors.prepare()
+                if k == 150:
+                    sensors.restart()
+                world.step()
+                sensors.measure()
+                rows.append(np.concatenate([*sensors.state_values(), *sensors.contact_wrench()]))
+            runs.append(np.array(rows))
+        finally:
+            world.close()
+    assert runs[0].tobytes() == runs[1].tobytes()
 
 
 def test_a_realtime_measurement_delay_must_stay_below_command_timeout():

@@ -3,7 +3,7 @@
 Figures asserted here: g(q) holds every robot (drift < 1e-4 over 2 s); free motion
 matches the model's RK4 solution (< 1e-3 over 0.5 s) and, at the production 1 ms step, the
 model integrated with PyBullet's own semi-implicit Euler (< 1e-9); wall/table penetration is
-F / k_e within 2 %; reset is bit-identical; efforts are clipped; brakes hold (< 1e-3 over 1 s);
+F / k_e within 2 % (on both engines); reset is bit-identical; efforts are clipped; brakes hold (< 1e-3 over 1 s);
 disturbances act as set; bad input raises ValueError naming the argument.
 """
 import os
@@ -164,7 +164,7 @@ def test_the_pandas_fingers_stay_held_closed_while_the_arm_falls(make_world):
     assert travel < 1e-6                                                     # m: measured 4.5e-8
 
 
-# -- 3. surfaces ---------------------------------------------------------------------------------
+# -- 3. surfaces (both engines) ---------------------------------------------------------------------------------
 def _pressing_start(name, model):
     """Closed forms: the scenario's q0; URDF arms: tip 2 mm above the table under its q0 position."""
     sc = scenarios.get(name)
@@ -176,9 +176,9 @@ def _pressing_start(name, model):
 
 
 @pytest.mark.parametrize('name', ['force_1dof', 'hybrid_cartesian_xy', 'hybrid_cartesian_xyz', 'iiwa', 'panda'])
-def test_surface_penetration_is_force_over_stiffness(make_world, name):
+def test_surface_penetration_is_force_over_stiffness(world_on, name):
     model, s = for_scenario(name), scenarios.get(name).surface
-    world = make_world(name, q0=_pressing_start(name, model))
+    world = world_on(name, q0=_pressing_start(name, model))
     push_dir = np.eye(model.task_dim)[s.axis] * s.sign
     for F in (5.0, 20.0, 80.0):
         # gravity compensation + a constant push F along the normal + mass-weighted damping
@@ -196,8 +196,27 @@ def test_surface_penetration_is_force_over_stiffness(make_world, name):
     assert np.allclose(torque, np.cross(contact, force), atol=1e-6 * np.linalg.norm(force))
 
 
-def test_surface_pushes_only_on_contact_and_away_from_the_wall(make_world):
-    world = make_world('force_1dof', q0=(0.09,))
+@pytest.mark.parametrize('name', ['force_1dof', 'hybrid_cartesian_xy', 'iiwa'])
+def test_both_engines_press_with_the_same_steady_force(name):
+    """The same push (gravity compensation + J^T F along the normal, F = 20 N, mass-weighted damping) for 1.5 s:
+    the steady contact force on MuJoCo (the lecture's spring at the tip) is PyBullet's (its soft contact)
+    within 5 % (measured: within 6e-7 relative on all three)."""
+    from sim_bridge.engines import make_world
+    model, s = for_scenario(name), scenarios.get(name).surface
+    forces = []
+    for engine in ('pybullet', 'mujoco'):
+        with make_world(engine, name, q0=_pressing_start(name, model)) as world:
+            direction = np.eye(model.task_dim)[s.axis] * s.sign
+            hold_with(world, lambda q, qd: model.g(q) + model.J(q).T @ (20.0 * direction) - model.M(q) @ (20.0 * qd),
+                      1500)
+            forces.append(np.linalg.norm(world.contact_wrench()[0]))
+    print(f'{name}: steady force pybullet {forces[0]:.6f} N, mujoco {forces[1]:.6f} N')
+    assert forces[1] == pytest.approx(forces[0], rel=0.05)
+    assert forces[0] == pytest.approx(20.0, rel=0.02)
+
+
+def test_surface_pushes_only_on_contact_and_away_from_the_wall(world_on):
+    world = world_on('force_1dof', q0=(0.09,))
     world.set_torque([0.0])
     world.step(10)
     assert np.array_equal(world.contact_wrench()[0], np.zeros(3))
@@ -208,9 +227,9 @@ def test_surface_pushes_only_on_contact_and_away_from_the_wall(make_world):
     assert force[0] > 0.0 and np.allclose(force[1:], 0.0)          # the robot pushes the wall along +x
 
 
-def test_surface_override_and_disabled_surface(make_world):
-    stiff = make_world('force_1dof', q0=(0.1,), surface=Surface(axis=0, x_e=0.1, k_e=4000.0))
-    free = make_world('force_1dof', q0=(0.1,), surface=False)
+def test_surface_override_and_disabled_surface(world_on):
+    stiff = world_on('force_1dof', q0=(0.1,), surface=Surface(axis=0, x_e=0.1, k_e=4000.0))
+    free = world_on('force_1dof', q0=(0.1,), surface=False)
     for world in (stiff, free):
         hold_with(world, lambda q, qd: np.array([20.0]) - 60.0 * qd, 1500)
     assert stiff.state()[0][0] - 0.1 == pytest.approx(20.0 / 4000.0, rel=0.02)

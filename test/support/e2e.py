@@ -126,8 +126,9 @@ class Lockstep:
 
     def advance(self, t):
         """Resume, run until the command of the tick at t s (simulation time) has arrived, pause; returns the
-        time (s) of the state the paused bridge holds, t or a few ticks later (the pause takes a service call,
-        while lockstep runs on)."""
+        time (s) of the state the paused bridge holds: the first tick at or past t, where the bridge pauses
+        itself (its pause_at), however slowly this process runs beside it."""
+        self.live.control.set_bridge_parameters({'pause_at': float(t)}, poll=self.live.alive)
         self.live.resume()
         self.live.run_until(int(round(t * demo.NS)), (),
                             demo.Progress(self.live.collector, 0, {}, (), None))

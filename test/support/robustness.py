@@ -817,10 +817,11 @@ def ros_test_context(domain_id):
 
 
 # -- flood publisher (run as its own process) -------------------------------------------------------------------------
-def flood(domain_id, joints, seconds, rate, out_path, topic='joint_states'):
-    """Publish valid joint_states as fast as `rate` Hz allows for `seconds` s (busy-waiting on the monotonic
-    clock, no sleeps); header.stamp = CLOCK_MONOTONIC at publication, so a subscriber in another process
-    can tell the age of the state a command answers. Writes {'sent', 'seconds', 'rate', 'last_stamp_ns'}."""
+def flood(domain_id, joints, seconds, rate, out_path, topic='joint_states', stop_file=None):
+    """Publish valid joint_states as fast as `rate` Hz allows for `seconds` s, or until `stop_file` exists
+    (looked for every 10 ms), busy-waiting on the monotonic clock, no sleeps; header.stamp = CLOCK_MONOTONIC
+    at publication, so a subscriber in another process can tell the age of the state a command answers.
+    Writes {'sent', 'seconds', 'rate', 'last_stamp_ns'}."""
     import rclpy
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
@@ -841,12 +842,17 @@ def flood(domain_id, joints, seconds, rate, out_path, topic='joint_states'):
         period = 1.0 / rate
         t0 = time.monotonic()
         t_end = t0 + seconds
+        next_look = t0
         sent = 0
         stamp = msg.header.stamp
         while True:
             now = time.monotonic()
             if now >= t_end:
                 break
+            if stop_file and now >= next_look:
+                if os.path.exists(stop_file):
+                    break
+                next_look = now + 0.01
             if now < t0 + sent * period:
                 continue
             ns = time.monotonic_ns()
@@ -873,5 +879,6 @@ if __name__ == '__main__':
     fp.add_argument('--seconds', type=float, default=5.0)
     fp.add_argument('--rate', type=float, default=20000.0)
     fp.add_argument('--out', required=True)
+    fp.add_argument('--stop-file', default=None)
     a = parser.parse_args()
-    flood(a.domain, a.joints, a.seconds, a.rate, a.out)
+    flood(a.domain, a.joints, a.seconds, a.rate, a.out, stop_file=a.stop_file)

@@ -27,17 +27,20 @@ KEYS = (
     *(f'law_us_{case}_checked_{stat}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')
       for stat in ('median', 'p99')),
     *(f'law_vs_rnea_{case}' for case in ('ct_2dof', 'ct_7dof', 'hybrid_7dof', 'impedance_7dof')),
+    *(key.format(case) for case in ('joint_impedance_7dof', 'adaptive_7dof')
+      for key in ('law_vs_rnea_{}', 'law_us_{}_median', 'law_us_{}_checked_median')),
     'mr_ct_7dof_us_median', 'pin_rnea_us_median', 'speedup_vs_modern_robotics',
     'lockstep_steps_per_s_polar', 'lockstep_steps_per_s_iiwa', 'pingpong_roundtrips_per_s',
-    'lockstep_vs_pingpong_ratio',
+    'lockstep_vs_pingpong_ratio', 'lockstep_steps_per_s_iiwa_typical', 'lockstep_cpu_us_per_step_iiwa_typical',
+    'lockstep_typical_vs_ideal_ratio_iiwa',
     'realtime_missed_vs_floor',
     'realtime_1khz_deadline_hit_ratio', 'realtime_latency_p50_ms', 'realtime_latency_p99_ms', 'realtime_rtf',
     *(f'realtime_floor_{metric}' for metric in ('missed_periods', 'periods', '1khz_deadline_hit_ratio',
                                                 'latency_p99_ms', 'rtf')),
-    *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance')
+    *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance', 'iiwa_typical')
       for metric in ('missed_vs_floor', 'missed_periods', 'periods', 'floor_missed_periods',
                      '1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
-    'sim_steps_per_s_iiwa',
+    'sim_steps_per_s_iiwa', 'sim_steps_per_s_iiwa_mujoco', 'sim_steps_mujoco_vs_pybullet',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
     'wrench_decode_us_cdr_median', 'wrench_decode_us_rclpy_median',
     'sweep_episode_ticks_per_s', 'sweep_local_s', 'sweep_local_1000_s', 'sweep_local_vs_episode_ratio',
@@ -139,9 +142,36 @@ def test_realtime_runs_of_the_iiwa_take_the_demo_experiments_parameters():
     assert 'law:=impedance' in controller and 'task_space:=pose' in controller and 'surface.enable:=false' in bridge
     (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime')
     assert not any(a.startswith('law:=') for a in controller)
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'realtime', 'iiwa_real_move')
+    assert 'law:=joint_impedance' in controller and 'integral:=true' in controller
+    assert any(a.startswith('friction_compensation.coulomb:=[1.8,') for a in controller)
     for run in bench_ros.REALTIME_RUNS:
         assert bench.TARGETS[f'realtime_rtf_{run}'] == bench.TARGETS['realtime_rtf']
     assert bench.TARGETS[f'realtime_missed_vs_floor_{run}'] == bench.TARGETS['realtime_missed_vs_floor']
+
+
+def test_the_typical_runs_stack_the_realism_profile_on_the_bridge_alone():
+    """B2's and B3's iiwa_typical runs give the bridge config/realism/iiwa_typical.yaml after the scenario's file
+    (the later file wins), the controller the scenario's file alone (its model is the ideal twin's); the other
+    runs no profile. B2's cost of the realism is the median over the rounds of typical / ideal of the same round."""
+    from benchmarks import bench, bench_ros
+    assert bench_ros.REALISM == {'iiwa_typical': 'typical', 'iiwa_joint_impedance_typical': 'typical'}
+    assert bench_ros.REALTIME_RUNS['iiwa_typical'] == ('iiwa', None)
+    assert bench_ros.LOCKSTEP_RUNS['iiwa_typical'] == 'iiwa'
+    (_, bridge), (_, controller) = bench_ros.node_commands('iiwa', 'lockstep', None, 'typical')
+    files = [bridge[i + 1] for i, a in enumerate(bridge) if a == '--params-file']
+    assert [os.path.relpath(f, ROOT) for f in files] == ['config/iiwa.yaml', 'config/realism/iiwa_typical.yaml']
+    assert not any('realism' in a for a in controller)
+    (_, bridge), _ = bench_ros.node_commands('iiwa', 'lockstep')
+    assert not any('realism' in a for a in bridge)
+    runs = {'iiwa': [(1000.0, 200.0), (2000.0, 210.0), (1500.0, 220.0)],
+            'iiwa_typical': [(900.0, 240.0), (1000.0, 250.0), (1350.0, 260.0)]}
+    cost = bench_ros.realism_cost(runs)
+    assert cost['lockstep_typical_vs_ideal_ratio_iiwa'] == pytest.approx(0.9)      # of 0.9, 0.5, 0.9
+    assert cost['lockstep_steps_per_s_iiwa_typical'] == 1000.0 and cost['lockstep_cpu_us_per_step_iiwa_typical'] == 250.0
+    assert bench.verdict('lockstep_typical_vs_ideal_ratio_iiwa', 0.89).startswith('MISSED')
+    for metric in ('rtf', 'latency_p99_ms', 'missed_vs_floor'):
+        assert bench.TARGETS[f'realtime_{metric}_iiwa_typical'] == bench.TARGETS[f'realtime_{metric}']
 
 
 def test_law_ticks_run_the_controllers_laws():
@@ -150,7 +180,8 @@ def test_law_ticks_run_the_controllers_laws():
     from benchmarks import bench
     cases = bench.law_cases(3)
     names = {'ct_2dof': 'computed_torque', 'ct_7dof': 'computed_torque', 'hybrid_7dof': 'hybrid',
-             'impedance_7dof': 'impedance'}
+             'impedance_7dof': 'impedance', 'joint_impedance_7dof': 'joint_impedance',
+             'adaptive_7dof': 'adaptive_computed_torque'}
     assert set(names) == set(bench.LAWS)
     for case, name in names.items():
         tick, inputs = cases[case]
@@ -160,6 +191,8 @@ def test_law_ticks_run_the_controllers_laws():
             tick.load(*args)
             tau = tick(*args)
             assert tau.shape == (tick.law.model.n,) and np.isfinite(tau).all(), case
+            if case == 'adaptive_7dof':          # the estimate the tick adapted (rows 1 ms apart)
+                public_args = (*public_args[:6], tick.law.theta, *public_args[7:])
             np.testing.assert_allclose(tau, public(*public_args), rtol=0, atol=1e-12, err_msg=case)
 
 

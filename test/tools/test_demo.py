@@ -442,24 +442,28 @@ def test_push_figures_on_a_synthetic_response():
 
 
 class _FakeLive:
-    """A LiveRun's side the bridge schedule uses: it records the calls."""
+    """A LiveRun's side the schedule uses: it records the calls."""
 
-    def __init__(self):
+    def __init__(self, paused_ns=1_000_000_000 + 503_000_000):
         self.calls = []
         self.control = self
+        self.paused_ns = paused_ns
 
     def pause(self):
         self.calls.append('pause')
 
     def paused_at(self):
         self.calls.append('paused_at')
-        return 1_000_000_000 + 503_000_000
+        return self.paused_ns
 
     def set_bridge_parameters(self, values, poll=None):
         self.calls.append(('set', values))
 
     def resume(self):
         self.calls.append('resume')
+
+    def send_force(self, axes, values, stamp_ns):
+        self.calls.append(('force', dict(zip(axes, values)), stamp_ns))
 
     def alive(self):
         pass
@@ -469,7 +473,7 @@ def test_bridge_parameter_changes_arm_pause_at_then_set_and_resume_when_due():
     """The bridge's pause_at is armed for the first change (origin 1 s + 0.5 s), set with each change for the
     next one (1 s + 2 s), and disarmed (-1) with the last."""
     push = {'disturbance.cartesian_force': [0.0, 0.0, -10.0]}
-    schedule = demo.BridgeSchedule(((2.0, {}), (0.5, push)), 1_000_000_000, lambda *a, **k: None)
+    schedule = demo.Schedule(((2.0, {}), (0.5, push)), 1_000_000_000, lambda *a, **k: None)
     live = _FakeLive()
     schedule.arm(live)
     assert live.calls == [('set', {'pause_at': 1.5})]
@@ -478,11 +482,29 @@ def test_bridge_parameter_changes_arm_pause_at_then_set_and_resume_when_due():
     schedule.send_due(live, 1_000_000_000 + 501_000_000)
     assert live.calls[1:] == ['pause', 'paused_at', ('set', {**push, 'pause_at': 3.0}), 'resume']
     assert schedule.applied == [{'t': 0.5, 't_applied': 0.503, 'parameters': push}]
+    live.paused_ns = 3_000_000_000
     schedule.send_due(live, 3_000_000_000)
     assert live.calls[-2] == ('set', {'pause_at': -1.0}) and len(schedule.applied) == 2
     empty = _FakeLive()
-    demo.BridgeSchedule((), 0, lambda *a, **k: None).arm(empty)
+    demo.Schedule((), 0, lambda *a, **k: None).arm(empty)
     assert empty.calls == []
+
+
+def test_force_references_are_sent_while_the_bridge_stands_before_their_time():
+    """The first force reference goes out before the run starts (origin 1 s), stamped with its time; the next at a
+    pause the bridge makes itself at the midpoint (1 s + 3 s), and a parameter change at the same time follows it
+    at that pause."""
+    push = {'disturbance.joint_torque': [1.0]}
+    schedule = demo.Schedule(((3.0, push),), 1_000_000_000, lambda *a, **k: None, ((4.0, (15.0,)), (2.0, (5.0,))),
+                             ('z',))
+    live = _FakeLive(paused_ns=4_000_000_000)
+    schedule.arm(live)
+    assert live.calls == [('force', {'z': 5.0}, 3_000_000_000), ('set', {'pause_at': 4.0})]
+    schedule.send_due(live, 3_999_000_000)
+    assert len(live.calls) == 2
+    schedule.send_due(live, 4_000_000_000)
+    assert live.calls[2:] == ['pause', 'paused_at', ('force', {'z': 15.0}, 5_000_000_000),
+                              ('set', {**push, 'pause_at': -1.0}), 'resume']
 
 
 def test_lost_ticks_are_reported_as_time_ranges():

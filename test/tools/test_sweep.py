@@ -389,10 +389,25 @@ def test_the_docs_distributions_parse_and_the_shipped_spec_plans():
     text = open(os.path.join(ROOT, 'docs', 'sweep.md'), encoding='utf-8').read()
     block = re.search(r'```yaml\n(sample:.*?)```', text, re.S).group(1)
     sample = yaml.safe_load(block)['sample']
-    assert len([sweep_spec.distribution(k, v) for k, v in sample.items()]) == 8
+    assert len([sweep_spec.distribution(k, v) for k, v in sample.items()]) == 9
     spec = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'polar_mass_error.yaml'))
     p = sweep_episode.plan(spec)
     assert spec.episodes == 200 and p.experiment.scenario == 'polar_two_link' and p.coordinates == ('theta1', 'r')
     bench = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'iiwa_typical.yaml'))     # make bench's B5
     p = sweep_episode.plan(bench)
     assert bench.episodes == 1000 and p.ticks == 3001 and p.values['sim_bridge']['armature'][0] == 0.1
+
+
+def test_the_engine_is_a_sweep_parameter_and_both_engines_track_alike():
+    """engine: {choice: [pybullet, mujoco]} (a string parameter's choice): each episode runs on the engine drawn,
+    the table names it, and the same robot tracks alike on both (RMS within 1e-9 rad: the same semi-implicit Euler
+    step of the same dynamics); the report gives ticks/s per engine; mixed choices are refused naming the key."""
+    p = sweep_episode.plan(polar(episodes=4, seed=2, sample={'engine': {'choice': ['pybullet', 'mujoco']}}))
+    rows = [sweep_episode.run(p, k) for k in range(4)]
+    assert {r['engine'] for r in rows} == {'pybullet', 'mujoco'} and all(r['stable'] for r in rows)
+    rms = [r['rms_error'] for r in rows]
+    assert max(rms) - min(rms) < 1e-9 and min(rms) > 0
+    assert set(sweep_report.ticks_per_s_by(rows, 'engine')) == {'pybullet', 'mujoco'}
+    with pytest.raises(ArgumentError) as err:
+        sweep_spec.load({'scenario': 'polar_two_link', 'sample': {'engine': {'choice': ['mujoco', 1.0]}}})
+    assert err.value.name == 'sample.engine'

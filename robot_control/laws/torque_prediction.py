@@ -1,0 +1,72 @@
+"""The torque prediction of composite adaptation: what the tip body's parameters must explain, tick by tick.
+
+Over the step from tick k-1 (time t0, state q0, qd0) to tick k (t, qd) the arm's mean acceleration is
+a = (qd - qd0) / (t - t0), and the torque the law sent at k-1, tau0, drove the model and the body:
+
+    r = tau0 - (M0(q0) a + C0(q0, qd0) qd0 + g0(q0)) = W theta,   W = Y(q0, qd0, qd0, a)   (n,), (n, 10)
+
+(M0, C0, g0 the model as configured; Y the tip body's regressor with the reference motion the measured
+one: the body's share of the inverse dynamics, robot_control.models.urdf_model.tip_body_regressor). It is
+exact when the robot integrates its dynamics over the tick from the tick's start state (semi-implicit
+Euler, as PyBullet does) and the torque is applied as sent (no saturation; friction compensated); else it
+holds to O(dt). No acceleration is measured: a comes from two velocities, and W and r are both low-pass
+filtered (first order, cutoff f, x_f += alpha (x - x_f), alpha = 1 - exp(-2 pi f dt), both from 0), which
+leaves W_f theta = r_f because the filter is linear and theta constant. The prediction error of an
+estimate theta_hat is then
+
+    e = W_f theta_hat - r_f = W_f (theta_hat - theta)   (n,), N m.
+"""
+import math
+
+import numpy as np
+
+from robot_control.models.urdf_model import tip_body_regressor
+
+
+def _prediction_sample(tau0, M0, h0, J0, Jdot0, a_g0, qd0, a):
+    """(W, r): W = Y(q0, qd0, qd0, a) (n, 10), r = tau0 - M0 a - h0 (n,), h0 = C0 qd0 + g0 at tick k-1."""
+    return tip_body_regressor(J0, Jdot0, a_g0, qd0, qd0, a), tau0 - M0 @ a - h0
+
+
+class TorquePrediction:
+    """W_f (n, 10) and r_f (n,), filtered at cutoff_hz (> 0, Hz), from the ticks recorded; a step of at most
+    max_step s is sampled, a longer one (or a time going back) is not."""
+
+    def __init__(self, n, cutoff_hz, max_step):
+        self.cutoff_hz, self.max_step = cutoff_hz, max_step
+        self.W, self.r = np.zeros((n, 10)), np.zeros(n)
+        self._last = None
+        self._dt = self._alpha_dt = None
+
+    def record(self, t, qd, tau, M, h, tip_motion):
+        """The tick at t (s): velocity qd (n,), the law's torque tau (n,), the model's M (n, n) and
+        h = C qd + g (n,), the tip's (J, Jdot, a_g) (UrdfModel._tip_motion)."""
+        self._last = (t, qd, tau, M, h, tip_motion)
+
+    def sample(self, t, qd):
+        """Filter in the step from the last recorded tick to (t, qd): True when a step was sampled."""
+        if self._last is None:
+            return False
+        t0, qd0, tau0, M0, h0, (J0, Jdot0, a_g0) = self._last
+        dt = t - t0
+        if not 0.0 < dt <= self.max_step:
+            return False
+        W, r = _prediction_sample(tau0, M0, h0, J0, Jdot0, a_g0, qd0, (qd - qd0) / dt)
+        alpha = self._alpha(dt)
+        self.W += alpha * (W - self.W)
+        self.r += alpha * (r - self.r)
+        return True
+
+    def _alpha(self, dt):
+        """alpha = 1 - exp(-2 pi f dt) of the filter, for a step of dt s (the last one's kept)."""
+        if dt != self._dt:
+            self._dt, self._alpha_dt = dt, 1.0 - math.exp(-2.0 * math.pi * self.cutoff_hz * dt)
+        return self._alpha_dt
+
+    def error(self, theta):
+        """e = W_f theta - r_f (n,), N m."""
+        return self.W @ theta - self.r
+
+    def continue_from(self, old):
+        """Take over another prediction's filter and last tick (same model)."""
+        self.W, self.r, self._last = old.W.copy(), old.r.copy(), old._last
