@@ -34,6 +34,11 @@ Engines: B2 and B3 also run the iiwa under computed torque on MuJoCo (their keys
 B4 the World of the iiwa without ROS, on PyBullet and on MuJoCo (sim_bridge.engines), rounds interleaved: physics
    steps per second under torque control (set_torque, step, state), the table in the world on both; the target is
    on MuJoCo's rate over PyBullet's in the same run (sim_steps_mujoco_vs_pybullet).
+B5 sweep throughput (benchmarks.bench_sweep): the iiwa under computed torque on the typical profile, 3 s
+   episodes; the sweep's ticks/s on the local worker processes (one per core) and on a two-host Ray cluster
+   (two network namespaces, one CPU each; where namespaces can be made) over one episode's tick rate in
+   process times the cores used; and the wall time of 1,000 episodes locally (the full run runs them;
+   --quick scales a shorter run).
 
 `make bench` runs it (`make bench QUICK=1` with --quick). --quick runs seconds instead of minutes
 and still writes every key. ROS processes run with
@@ -76,6 +81,9 @@ TARGETS = {
     'realtime_missed_vs_floor': ('<=', 1.5),
     'realtime_latency_p99_ms': ('<=', 1.0),
     'realtime_rtf': ('>=', 0.99),
+    'sweep_local_vs_episode_ratio': ('>=', 0.8),
+    'sweep_ray_vs_episode_ratio': ('>=', 0.7),
+    'sweep_local_1000_s': ('<=', 60.0),
     'sim_steps_mujoco_vs_pybullet': ('>=', 1.0),
 }
 #: B2's target holds for each of its runs on another engine
@@ -94,6 +102,8 @@ BESIDE = {f'law_vs_rnea_{case}': f'{{{stem}_median:.3g}} us / rnea {{pin_rnea_us
 BESIDE.update({f'realtime_missed_vs_floor_{_run}': f'{{realtime_missed_periods_{_run}:.0f}} of '
                f'{{realtime_periods_{_run}:.0f}} periods missed, floor {{realtime_floor_missed_periods:.0f}} of '
                '{realtime_floor_periods:.0f}' for _run in REALTIME_RUNS})
+BESIDE.update({'sweep_local_vs_episode_ratio': '1 episode {sweep_episode_ticks_per_s:,.0f} ticks/s in process',
+               'sweep_local_1000_s': 'measured {sweep_local_s:.1f} s for the run\'s episodes'})
 BESIDE['lockstep_typical_vs_ideal_ratio_iiwa'] = ('median of the rounds; medians {lockstep_steps_per_s_iiwa_typical:.0f} '
                                                   '/ {lockstep_steps_per_s_iiwa:.0f} steps/s')
 BESIDE.update({f'lockstep_vs_pingpong_ratio_{_run}': f'{{lockstep_steps_per_s_{_run}:.0f}} steps/s / ping-pong '
@@ -116,12 +126,17 @@ class Plan:
     dds_warmup_s: float      # B2/B3 wall time discarded after the first state
     dds_window_s: float      # B2 measured window per run
     realtime_s: float        # B3 measured duration per scenario
+    sweep_episodes: int      # B5 episodes of the timed local run
+    sweep_ratio_episodes: int  # B5 episodes of each ratio's sweep (local, Ray)
+    sweep_single: int        # B5 episodes in process before and after each ratio's sweep (each)
 
 
 FULL = Plan(law_rounds=10, law_calls=400, mr_calls=10, world_rounds=7, world_steps=2000,
-            dds_rounds=5, dds_warmup_s=1.0, dds_window_s=3.0, realtime_s=20.0)
+            dds_rounds=5, dds_warmup_s=1.0, dds_window_s=3.0, realtime_s=20.0,
+            sweep_episodes=1000, sweep_ratio_episodes=40, sweep_single=2)
 QUICK = Plan(law_rounds=3, law_calls=100, mr_calls=2, world_rounds=3, world_steps=300,
-             dds_rounds=1, dds_warmup_s=0.3, dds_window_s=1.0, realtime_s=2.0)
+             dds_rounds=1, dds_warmup_s=0.3, dds_window_s=1.0, realtime_s=2.0,
+             sweep_episodes=6, sweep_ratio_episodes=6, sweep_single=1)
 
 
 # -- statistics ----------------------------------------------------------------------------------
@@ -482,14 +497,14 @@ def check_finite(results):
 
 
 # -- main ----------------------------------------------------------------------------------------
-PARTS = ('b1', 'b4', 'b2', 'b3')
+PARTS = ('b1', 'b4', 'b2', 'b3', 'b5')
 
 
 def parse_args(argv):
     parser = argparse.ArgumentParser(prog='python -m benchmarks.bench', description=__doc__.split('\n')[0])
     parser.add_argument('--quick', action='store_true', help='short run (seconds), still writes every key')
     parser.add_argument('--out', default=os.path.join('out', 'bench'), help='output directory')
-    parser.add_argument('--only', default=','.join(PARTS), help='comma-separated subset of b1,b2,b3,b4')
+    parser.add_argument('--only', default=','.join(PARTS), help='comma-separated subset of b1,b2,b3,b4,b5')
     parser.add_argument('--domain-id', type=int, default=None,
                         help='ROS_DOMAIN_ID for the DDS parts (default: the first free of 101, 100, ..., 1)')
     args = parser.parse_args(argv)
@@ -519,6 +534,10 @@ def run(parts, plan, domain_id, log, outdir):
         if 'b3' in parts:
             log(f'B3 real time at 1 kHz for {plan.realtime_s:g} s per scenario ...')
             results.update(bench_ros.bench_realtime(plan, env, log, os.path.join(outdir, 'logs')))
+    if 'b5' in parts:
+        from benchmarks.bench_sweep import bench_sweep
+        log('B5 sweep throughput ...')
+        results.update(bench_sweep(plan, log))
     return results
 
 

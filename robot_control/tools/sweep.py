@@ -1,12 +1,13 @@
 """`sweep`: Monte Carlo runs of an experiment over uncertain parameters, in process (docs/sweep.md).
 
-    sweep run SPEC.yaml [--workers N] [--out DIR] [--episodes N] [--seed S]
+    sweep run SPEC.yaml [--workers N | --ray auto|ADDRESS] [--out DIR] [--episodes N] [--seed S]
     sweep replay RUN K [--format npz|csv]
     sweep tune SPEC.yaml [--workers N] [--out DIR] [--trials N]     (robot_control.tools.sweep_tune)
     sweep grid SPEC.yaml [--workers N] [--out DIR]
 
 `run` runs the spec's episodes (each the rclpy-free Controller and the bridge's World in lockstep,
-robot_control.tools.sweep_episode) on N local worker processes (robot_control.tools.sweep_engine),
+robot_control.tools.sweep_episode) on N local worker processes (robot_control.tools.sweep_engine) or as
+tasks on a Ray cluster (robot_control.tools.sweep_ray),
 resuming a run directory that holds finished episodes, and writes episodes.csv, summary.json and the
 plots (robot_control.tools.sweep_report); the summary is printed. `replay` reruns episode K of a run
 directory, checks that its metrics equal its row bit for bit, and writes its trajectory and tracking
@@ -25,7 +26,7 @@ from robot_control.tools import demo_metrics, sweep_engine, sweep_episode, sweep
 from robot_control.validation import ArgumentError
 
 TRACE = ('t', 'q', 'qd', 'tau_cmd', 'tau_applied', 'ref_pos', 'ref_vel', 'err_pos', 'err_vel', 'force_xyz')
-NOT_REPLAYED = ('wall_s',)       # the only columns a replay may change
+NOT_REPLAYED = sweep_episode.RUN_COLUMNS       # the only columns a replay may change
 
 
 def sampled_columns(columns):
@@ -40,17 +41,23 @@ def cmd_run(opts):
     if opts.seed is not None:
         spec = sweep_spec.load({**spec.text, 'seed': opts.seed})
     out = Path(opts.out or Path('out') / 'sweep' / Path(opts.spec).stem)
-    rows, progress = sweep_engine.run_local(spec, out, opts.workers)
+    if opts.ray:
+        from robot_control.tools import sweep_ray
+        rows, progress = sweep_ray.run_ray(spec, out, opts.ray)
+        engine = f'on the Ray cluster at {opts.ray}'
+    else:
+        rows, progress = sweep_engine.run_local(spec, out, opts.workers)
+        engine = f'with {opts.workers} worker(s)'
+
     columns = sweep_episode.columns(sweep_episode.plan(spec))
     sampled = sampled_columns(columns)
     s = sweep_report.write(out, rows, spec, sampled)
     eps, ticks = progress.rates
     print(sweep_report.format_summary(s, sampled))
     if progress.new:
-        print(f'{progress.new} episodes run here: {eps:.2f} episodes/s, {ticks:,.0f} ticks/s with {opts.workers} '
-              f'worker(s)')
+        print(f'{progress.new} episodes run here: {eps:.2f} episodes/s, {ticks:,.0f} ticks/s {engine}')
     if 'engine' in sampled:
-        print('in the episodes, per engine: ' + ', '.join(f'{engine} {rate:,.0f} ticks/s' for engine, rate in
+        print('in the episodes, per engine: ' + ', '.join(f'{name} {rate:,.0f} ticks/s' for name, rate in
                                                           sweep_report.ticks_per_s_by(rows, 'engine').items()))
     print(f'results: {out}/episodes.csv, summary.json, histograms.png, metrics_vs_parameters.png')
     return 0
@@ -117,6 +124,9 @@ def parser():
     r.add_argument('spec', help='the spec, YAML (docs/sweep.md)')
     r.add_argument('--workers', type=int, default=1, help='worker processes (0: in this process; default 1)')
     r.add_argument('--out', default=None, help='run directory (default out/sweep/<spec name>)')
+    r.add_argument('--ray', metavar='ADDRESS', default=None,
+                   help="run the episodes as tasks on a running Ray cluster: its head's HOST:PORT, or auto "
+                        '(RAY_ADDRESS, or a cluster started on this machine); --workers is then ignored')
     r.add_argument('--episodes', type=int, default=None, help="override the spec's episode count")
     r.add_argument('--seed', type=int, default=None, help="override the spec's run seed")
     r.set_defaults(func=cmd_run)

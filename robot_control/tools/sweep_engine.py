@@ -10,10 +10,10 @@ episodes that finished are kept, the pool is rebuilt and the unfinished ones run
 in the table exactly once. Episodes are deterministic (robot_control.tools.sweep_spec), so a rerun gives the
 same row as a clean run, whichever worker runs it.
 
-The engine is `run_local` (processes of this machine). Another engine (a Ray cluster, an optimiser asking
-for episodes) needs the same three pieces: the episodes left (the indices not in `RunDirectory.rows()`),
-what a worker runs (`_init(spec text)` once per process, then `episode(k)` -> the row) and the one writer
-(`RunDirectory.append`, then `finish`).
+The engines are `run_local` (processes of this machine) and robot_control.tools.sweep_ray (a Ray cluster);
+both go through `run_with`, which keeps the one writer (`RunDirectory.append`, then `finish`), skips the
+episodes already in the table and takes each episode's row once. A worker runs `_init(spec text)` once
+per process, then `episode(k)` -> the row.
 """
 import concurrent.futures as cf
 import csv
@@ -170,6 +170,19 @@ def episode(k):
 def run_local(spec, out, workers=1, say=lambda text: print(text, file=sys.stderr), stream=sys.stderr):
     """Run (or resume) every episode of Spec `spec` into directory `out` with `workers` processes (0: in this
     process); returns (rows sorted by episode, Progress)."""
+    def execute(p, todo, rows, finished):
+        if workers == 0:
+            for k in todo:
+                finished(sweep_episode.run(p, k))
+        else:
+            _pool(spec, workers, todo, rows, finished, say)
+    return run_with(spec, out, execute, say, stream)
+
+
+def run_with(spec, out, execute, say=lambda text: print(text, file=sys.stderr), stream=sys.stderr):
+    """Run (or resume) every episode of Spec `spec` into directory `out` on an engine: `execute(plan, todo,
+    rows, finished)` runs episodes `todo` (indices; `rows` {episode: row} holds those finished) and hands each
+    finished episode's row to `finished` once. Returns (rows sorted by episode, Progress)."""
     p = sweep_episode.plan(spec)
     run_dir = RunDirectory(out, spec, sweep_episode.columns(p))
     rows = {r['episode']: r for r in run_dir.rows() if r['episode'] < spec.episodes}
@@ -179,16 +192,17 @@ def run_local(spec, out, workers=1, say=lambda text: print(text, file=sys.stderr
     progress = Progress(spec.episodes, len(rows), stream)
 
     def finished(row):
+        if row['episode'] in rows:          # an engine that ran an episode twice: the first row stands
+            return
         run_dir.append(row)
         rows[row['episode']] = row
         progress.add(row)
-    if workers == 0:
-        for k in todo:
-            finished(sweep_episode.run(p, k))
-    else:
-        _pool(spec, workers, todo, rows, finished, say)
+    execute(p, todo, rows, finished)
     if not progress.new:
         progress.add(None, force=True)
+    missing = [k for k in range(spec.episodes) if k not in rows]
+    if missing:
+        raise RuntimeError(f'the engine returned without episodes {missing[:10]} ({len(missing)} in all)')
     ordered = [rows[k] for k in range(spec.episodes)]
     run_dir.finish(ordered)
     return ordered, progress
@@ -226,8 +240,7 @@ def _pool(spec, workers, todo, rows, finished, say):
                 return
             except BrokenProcessPool:
                 for fut in futures:        # finished before the pool broke: keep them
-                    if fut.done() and not fut.cancelled() and fut.exception() is None \
-                            and fut.result()['episode'] not in rows:
+                    if fut.done() and not fut.cancelled() and fut.exception() is None:
                         finished(fut.result())
         idle = idle + 1 if len([k for k in todo if k not in rows]) == len(left) else 0
         if idle > MAX_IDLE_RESTARTS:

@@ -21,6 +21,8 @@ The episode's metrics (one table row; coordinates as demo_metrics names them: jo
 """
 import dataclasses
 import math
+import os
+import socket
 import time
 from pathlib import Path
 
@@ -43,6 +45,8 @@ from sim_bridge.engines import world_of_config
 NS = units.NS_PER_S
 SECTIONS = {'controller': '/**/controller', 'sim_bridge': '/**/sim_bridge'}
 TASK_AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')       # the wrench's six entries (f, m), world axes
+#: the columns that say how long and where an episode ran, not what it did (a replay may differ in them)
+RUN_COLUMNS = ('wall_s', 'worker')
 METRICS = ('rms_error', 'max_error', 'final_error', 'peak_torque', 'saturated_ticks', 'force_rms_error',
            'force_max_error', 'stable', 'passed')
 
@@ -168,10 +172,11 @@ def plan(spec):
 
 
 def columns(p):
-    """The table's columns, in order: episode, seed, the sampled values, the metrics, ticks, wall_s, error."""
+    """The table's columns, in order: episode, seed, the sampled values, the metrics, ticks, wall_s, worker,
+    error."""
     seed, values, sampled = episode_values(p, 0)
     per = [f'{key}.{c}' for key in ('rms_error', 'max_error', 'final_error') for c in p.coordinates]
-    return ['episode', 'seed', *sampled, *METRICS, *per, 'ticks', 'wall_s', 'error']
+    return ['episode', 'seed', *sampled, *METRICS, *per, 'ticks', *RUN_COLUMNS, 'error']
 
 
 def episode_values(p, k):
@@ -262,7 +267,7 @@ def simulate(exp, ccfg, bvals, state_timeout, ticks):
 def run(p, k, keep=False):
     """Episode k of Plan p: its table row ({column: value}) and, with `keep`, its demo_metrics.RunData."""
     seed, values, columns = episode_values(p, k)
-    row = {'episode': k, 'seed': seed, **columns}
+    row = {'episode': k, 'seed': seed, **columns, 'worker': f'{socket.gethostname()}/{os.getpid()}'}
     t0 = time.perf_counter()
     try:
         cvals = controller_params.TABLE.validate(values['controller'])

@@ -45,6 +45,7 @@ KEYS = (
     'sim_steps_per_s_iiwa', 'sim_steps_per_s_iiwa_mujoco', 'sim_steps_mujoco_vs_pybullet',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
     'wrench_decode_us_cdr_median', 'wrench_decode_us_rclpy_median',
+    'sweep_episode_ticks_per_s', 'sweep_local_s', 'sweep_local_1000_s', 'sweep_local_vs_episode_ratio',
 )
 QUICK_TIMEOUT_S = 300
 

@@ -41,7 +41,7 @@ def polar(episodes=3, seed=7, controller=None, sample=None, criteria=None, durat
 
 
 def without_wall(row):
-    return {k: v for k, v in row.items() if k != 'wall_s'}
+    return {k: v for k, v in row.items() if k not in sweep_episode.RUN_COLUMNS}
 
 
 def equal_rows(a, b):
@@ -393,6 +393,9 @@ def test_the_docs_distributions_parse_and_the_shipped_spec_plans():
     spec = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'polar_mass_error.yaml'))
     p = sweep_episode.plan(spec)
     assert spec.episodes == 200 and p.experiment.scenario == 'polar_two_link' and p.coordinates == ('theta1', 'r')
+    bench = sweep_spec.load(os.path.join(ROOT, 'config', 'sweeps', 'iiwa_typical.yaml'))     # make bench's B5
+    p = sweep_episode.plan(bench)
+    assert bench.episodes == 1000 and p.ticks == 3001 and p.values['sim_bridge']['armature'][0] == 0.1
 
 
 def test_the_engine_is_a_sweep_parameter_and_both_engines_track_alike():
