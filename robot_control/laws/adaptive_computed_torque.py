@@ -100,22 +100,21 @@ def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
     a_r = J qr_dd + Jdot qr_d - a_g; J, Jdot, a_g from model._tick_terms); K_D = diag(kd), or when kd is None
     designed as K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's:
     K_D s = lam (M s + J^T A(J s) theta) folds into M x + J^T Y_b(v, v_r, a_r - lam J s) theta, x = qr_dd - lam s.
-    L (12, 5) of _reference_matrix(lam, kd is None), S = [E, Ed, qd_d, qdd_d, qd] (5, n); terms = (M, C qd + g,
-    (J, Jdot, a_g)) for the torque prediction. Checked arrays, theta (10,)."""
+    L (12, 5) of _reference_matrix(lam, kd is None), S = [E, Ed, qd_d, qdd_d, qd] (5, n); terms = ([J; M]
+    (6 + n, n), C qd + g, J qd, Jdot qd - a_g) for TorquePrediction.record_terms. Checked arrays, theta (10,)."""
     n = model.n
     V = (L @ S).reshape(6, 2 * n)          # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
-    MC, g, JJ, a_g = model._tick_terms(q, S[4])
-    B = JJ @ V[:5].T                       # columns J qd, J qr_d, J s, J qr_dd + Jdot qr_d, J x + Jdot qr_d
-    B[:, 3:] -= a_g[:, None]
+    K = model._tick_terms(q, S[4])         # [[J, Jdot, a_g], [M, C, g]]
+    P = K[:, :2 * n] @ V.T                 # J and M on each of V's rows, Jdot and C on the qd
+    P[:6, 3:] -= K[:6, 2 * n:]             # J qr_dd + Jdot qr_d - a_g, J x + Jdot qr_d - a_g, Jdot qd - a_g
+    P[6:, 4:] += K[6:, 2 * n:]             # M x + C qr_d + g, C qd + g
     z = np.empty((2, 42))
-    slotine_li_arguments(z, B[:, 0], B[:, 1], B[:, 3:].T)
+    slotine_li_arguments(z, P[:6, 0], P[:6, 1], P[:6, 3:5].T)
     Yb = slotine_li_body_regressors(z)     # the regressor's (a_r) and the torque's (a_r - lam J s)
-    T = MC @ V[4:].T + g[:, None]          # M x + C qr_d + g, C qd + g
-    J = JJ[:, :n]
-    tau = T[:, 0] + J.T @ (Yb[1] @ theta)
+    tau = P[6:, 4] + K[:6, :n].T @ (Yb[1] @ theta)
     if kd is not None:
         tau -= kd * V[2, :n]
-    return tau, B[:, 2] @ Yb[0], (MC[:, :n], T[:, 1], (J, JJ[:, n:], a_g))
+    return tau, P[:6, 2] @ Yb[0], (K[:, :n], P[6:, 5], P[:6, 0], P[:6, 5])
 
 
 def _adaptation_step(theta, grad, gamma, dt, W=None, e=None, rho=0.0):
@@ -318,7 +317,7 @@ class AdaptiveComputedTorque(Law):
         S = np.array((err.E, err.Ed, ref.qd_d, ref.qdd_d, state.qd))
         tau, self._grad, terms = _adaptive_computed_torque(self.model, self._L, S, state.q, self.theta, self.kd)
         if self.prediction is not None:
-            self.prediction.record(state.t, state.qd, tau, *terms)
+            self.prediction.record_terms(state.t, state.qd, tau, *terms)
         return tau
 
     def _adapt(self, t, qd):

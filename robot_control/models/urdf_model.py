@@ -302,36 +302,37 @@ class UrdfModel(RobotModel):
         vectors (linear, then angular) in the tip frame at (q, qd), from one kinematics pass: the tip's
         velocity is J qd and its acceleration J qdd + Jdot qd; a_g the world's gravity carried to the frame."""
         pin.computeJointJacobiansTimeVariation(self.model, self._data, self._map.q(q), self._map.v(qd))
-        JJ, a_g = self._tip_frames()
-        return JJ[:, :self.n], JJ[:, self.n:], a_g
+        n = self.n
+        tip = self._tip_frames(np.empty((6, 2 * n + 1)))
+        return tip[:, :n], tip[:, n:2 * n], tip[:, 2 * n]
 
-    def _tip_frames(self):
-        """(JJ, a_g): _tip_motion's [J | Jdot] side by side (6, 2n) and a_g (6,), from the joints' Jacobians
-        and their rates a pass left in data (computeJointJacobiansTimeVariation, computeCoriolisMatrix)."""
+    def _tip_frames(self, out):
+        """out (6, 2n + 1) = [J | Jdot | a_g] of _tip_motion, from the joints' Jacobians and their rates a pass
+        left in data (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them
+        and the world's gravity to the tip frame."""
         model, data, joint, n, world = self.model, self._data, self._tip_joint, self.n, self._tip_world
         to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
         cols = slice(None) if self._map.identity else self._map.iv
         world[:, :n] = pin.getJointJacobian(model, data, joint, pin.WORLD)[:, cols]
         world[:, n:2 * n] = pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD)[:, cols]
-        tip = to_tip @ world
-        return tip[:, :2 * n], tip[:, 2 * n]
+        return np.matmul(to_tip, world, out=out)
 
     def _tick_terms(self, q, qd):
-        """(MC, g, JJ, a_g): [M | C] (n, 2n) and g (_M, _C, _g), [J | Jdot] (6, 2n) and a_g (_tip_motion) at
-        (q, qd), the tip's from the Coriolis matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians
-        and their rates in data); side by side, so that one product applies M and C, or J and Jdot."""
+        """K (6 + n, 2n + 1) = [[J, Jdot, a_g], [M, C, g]]: _tip_motion's and _M, _C, _g at (q, qd), the tip's
+        from the Coriolis matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in
+        data); side by side, so that one product applies J and Jdot, M and C, and J with M."""
         n = self.n
-        MC = np.empty((n, 2 * n))
-        MC[:, n:] = self._C(q, qd)
-        JJ, a_g = self._tip_frames()
-        MC[:, :n] = self._M(q)
-        return MC, self._g(q), JJ, a_g
+        K = np.empty((6 + n, 2 * n + 1))
+        K[6:, n:2 * n] = self._C(q, qd)
+        self._tip_frames(K[:6])
+        K[6:, :n] = self._M(q)
+        K[6:, 2 * n] = self._g(q)
+        return K
 
     def _dynamics_and_tip(self, q, qd):
         """(M, C, g, (J, Jdot, a_g)): _tick_terms apart."""
-        MC, g, JJ, a_g = self._tick_terms(q, qd)
-        n = self.n
-        return MC[:, :n], MC[:, n:], g, (JJ[:, :n], JJ[:, n:], a_g)
+        K, n = self._tick_terms(q, qd), self.n
+        return K[6:, :n], K[6:, n:2 * n], K[6:, 2 * n], (K[:6, :n], K[:6, n:2 * n], K[:6, 2 * n])
 
     def _tip_regressor(self, q, qd, qr_d, qr_dd):
         """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
