@@ -414,7 +414,8 @@ def slotine_li_arguments(z, v, v_r, a_r):
     evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row."""
     z[:, :6] = a_r
     np.multiply(v[:, None], v_r, out=z[0, 6:].reshape(6, 6))
-    z[1:, 6:] = z[0, 6:]
+    if len(z) > 1:
+        z[1:, 6:] = z[0, 6:]
 
 
 def slotine_li_body_regressors(z):
