@@ -69,7 +69,7 @@ from robot_control import validation
 from robot_control.laws.base import Law
 from robot_control.laws.joint_impedance import per_joint
 from robot_control.laws.torque_prediction import TorquePrediction
-from robot_control.models.urdf_model import tip_body_regressor, tip_inertia_regressor
+from robot_control.models.urdf_model import slotine_li_arguments, slotine_li_body_regressors
 from robot_control.param_table import Row, custom, gt, gt_eq
 from robot_control.validation import ArgumentError
 
@@ -82,35 +82,48 @@ MASS, FIRST_MOMENT, INERTIA = slice(0, 1), slice(1, 4), slice(4, 10)
 _INERTIA_LOWER, _INERTIA_UPPER = np.array([0.0, -0.5, 0.0, -0.5, -0.5, 0.0]), np.array([1.0, 0.5, 1.0, 0.5, 0.5, 1.0])
 
 
-def _reference_motion(E, Ed, qd_d, qdd_d, lam):
-    """(qr_d, qr_dd) = (qd_d + Lambda E, qdd_d + Lambda Ed), (n,) each; Lambda = lam I, 1/s."""
-    return qd_d + lam * E, qdd_d + lam * Ed
-
-
-def _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd=None):
-    """(tau, Y, s, terms): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, s = qd - qr_d, with
-    Y the tip body's regressor (n, 10) (tip_body_regressor of the tip's motion, model._dynamics_and_tip); K_D = diag(kd), or when kd
-    is None designed as K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's
-    (M_theta s = tip_inertia_regressor(J, s) theta); terms = (M, C qd + g, (J, Jdot, a_g)) for the torque
-    prediction. Checked arrays (n,), theta (10,)."""
+def _reference_matrix(lam, designed):
+    """L (12, 5): the rows [qd, 0, qr_d, 0, s, 0, qr_dd, qr_d, x, qr_d, 0, qd] (n,) each = L @ [E, Ed, qd_d,
+    qdd_d, qd], with qr_d = qd_d + Lambda E, qr_dd = qdd_d + Lambda Ed, s = qd - qr_d (Lambda = lam I, 1/s) and
+    x = qr_dd - lam s when K_D is designed (lam M_hat), else qr_dd. Read as (6, 2n) the rows are the pairs
+    [qd | 0], [qr_d | 0], [s | 0], [qr_dd | qr_d], [x | qr_d], [0 | qd]: what [J | Jdot] and [M | C] act on."""
+    qd, zero = np.array((0.0, 0.0, 0.0, 0.0, 1.0)), np.zeros(5)
+    qr_d, qr_dd = np.array((lam, 0.0, 1.0, 0.0, 0.0)), np.array((0.0, lam, 0.0, 1.0, 0.0))
     s = qd - qr_d
-    M, C, g, tip = model._dynamics_and_tip(q, qd)
-    J, Jdot, a_g = tip
-    Y = tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd)
-    if kd is None:          # K_D s = lam (M s + M_theta s): M (qr_dd - lam s) + (Y - lam Y_s) theta
-        tau = M @ (qr_dd - lam * s) + C @ qr_d + g + (Y - lam * tip_inertia_regressor(J, s)) @ theta
-    else:
-        tau = M @ qr_dd + C @ qr_d + g + Y @ theta - kd * s
-    return tau, Y, s, (M, C @ qd + g, tip)
+    x = qr_dd - lam * s if designed else qr_dd
+    return np.array((qd, zero, qr_d, zero, s, zero, qr_dd, qr_d, x, qr_d, zero, qd))
 
 
-def _adaptation_step(theta, Y, s, gamma, dt, W=None, e=None, rho=0.0):
+def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
+    """(tau, grad, terms): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, grad = Y^T s (10,), with
+    Y = J^T Y_b (n, 10) the tip body's regressor (Y_b = slotine_li_body_regressors at v = J qd, v_r = J qr_d,
+    a_r = J qr_dd + Jdot qr_d - a_g; J, Jdot, a_g from model._tick_terms); K_D = diag(kd), or when kd is None
+    designed as K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's:
+    K_D s = lam (M s + J^T A(J s) theta) folds into M x + J^T Y_b(v, v_r, a_r - lam J s) theta, x = qr_dd - lam s.
+    L (12, 5) of _reference_matrix(lam, kd is None), S = [E, Ed, qd_d, qdd_d, qd] (5, n); terms = ([J; M]
+    (6 + n, n), C qd + g, J qd, Jdot qd - a_g) for TorquePrediction.record_terms. Checked arrays, theta (10,)."""
+    n = model.n
+    V = (L @ S).reshape(6, 2 * n)          # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
+    K = model._tick_terms(q, S[4])         # [[J, Jdot, a_g], [M, C, g]]
+    P = K[:, :2 * n] @ V.T                 # J and M on each of V's rows, Jdot and C on the qd
+    P[:6, 3:] -= K[:6, 2 * n:]             # J qr_dd + Jdot qr_d - a_g, J x + Jdot qr_d - a_g, Jdot qd - a_g
+    P[6:, 4:] += K[6:, 2 * n:]             # M x + C qr_d + g, C qd + g
+    z = np.empty((2, 42))
+    slotine_li_arguments(z, P[:6, 0], P[:6, 1], P[:6, 3:5].T)
+    Yb = slotine_li_body_regressors(z)     # the regressor's (a_r) and the torque's (a_r - lam J s)
+    tau = P[6:, 4] + K[:6, :n].T @ (Yb[1] @ theta)
+    if kd is not None:
+        tau -= kd * V[2, :n]
+    return tau, P[:6, 2] @ Yb[0], (K[:, :n], P[6:, 5], P[:6, 0], P[:6, 5])
+
+
+def _adaptation_step(theta, grad, gamma, dt, W=None, e=None, rho=0.0):
     """theta + dt theta_dot (10,), theta_dot = -Gamma (Y^T s + W^T R e), R = rho / (1 + tr(W Gamma W^T));
-    gamma (10,) the diagonal of Gamma, dt s; W (n, 10), e (n,) the prediction (None: the first term alone)."""
-    step = Y.T @ s
+    grad = Y^T s (10,), gamma (10,) the diagonal of Gamma, dt s; W (n, 10), e (n,) the prediction (None: the
+    first term alone)."""
     if W is not None:
-        step += (rho / (1.0 + np.vdot(W * gamma, W))) * (W.T @ e)
-    return theta - (dt * gamma) * step
+        grad = grad + (rho / (1.0 + np.vdot(W * gamma, W))) * (e @ W)
+    return theta - (dt * gamma) * grad
 
 
 def _project(theta, gamma, mass_max, com_max):
@@ -119,12 +132,14 @@ def _project(theta, gamma, mass_max, com_max):
     |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds; theta itself
     when it is in Omega."""
     lower, upper = _inertia_bounds(mass_max, com_max)
-    m, h, inertia = theta[0], theta[FIRST_MOMENT], theta[INERTIA]
-    if 0.0 <= m <= mass_max and h @ h <= (com_max * m) ** 2 and (lower <= inertia).all() and (inertia <= upper).all():
+    m, hx, hy, hz = theta[:4].tolist()
+    inertia = theta[INERTIA]
+    clipped = np.minimum(np.maximum(inertia, lower), upper)
+    if 0.0 <= m <= mass_max and hx * hx + hy * hy + hz * hz <= (com_max * m) ** 2 and (clipped == inertia).all():
         return theta
-    out = theta.copy()
-    out[MASS], out[FIRST_MOMENT] = _project_on_cone(m, h, gamma[0], gamma[1], mass_max, com_max)
-    out[INERTIA] = np.clip(inertia, lower, upper)
+    out = np.empty(10)
+    out[:4] = _project_on_cone(m, (hx, hy, hz), float(gamma[0]), float(gamma[1]), mass_max, com_max)
+    out[INERTIA] = clipped
     return out
 
 
@@ -136,26 +151,27 @@ def _inertia_bounds(mass_max, com_max):
 
 
 def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
-    """(m, h) of {|h| <= com_max m, m <= mass_max} nearest (m, h) in the metric (dm^2 / gamma_m + |dh|^2 / gamma_h).
+    """(m, h_x, h_y, h_z) of {|h| <= com_max m, m <= mass_max} nearest (m, h) (h three floats) in the metric
+    (dm^2 / gamma_m + |dh|^2 / gamma_h).
 
     In the scaled x = m / sqrt(gamma_m), y = h / sqrt(gamma_h) the set is the cone |y| <= b x,
     b = com_max sqrt(gamma_m / gamma_h), cut at x_max: the point itself inside; the apex when it lies in
     the polar cone (b |y| <= -x); else the ray (t, b t y / |y|), t = (x + b |y|) / (1 + b^2). A point beyond
     x_max goes to the disk |y| <= b x_max at x_max."""
     rm, rh = math.sqrt(gamma_m), math.sqrt(gamma_h)
-    x, y, b, x_max = m / rm, h / rh, com_max * rm / rh, mass_max / rm
-    r = math.sqrt(y @ y)
+    x, b, x_max = m / rm, com_max * rm / rh, mass_max / rm
+    y = [c / rh for c in h]
+    r = math.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])
     if r > b * x:
         if b * r <= -x:
-            x, y = 0.0, np.zeros(3)
+            x, y, r = 0.0, [0.0, 0.0, 0.0], 0.0
         else:
             x = (x + b * r) / (1.0 + b * b)
-            y = y * (b * x / r)
-    if x > x_max:
-        x = x_max
-        r = math.sqrt(y @ y)
-        y = y * min(1.0, b * x_max / r) if r > 0.0 else y
-    return x * rm, y * rh
+            y, r = [c * (b * x / r) for c in y], b * x
+    if x > x_max and r > 0.0:
+        scale = min(1.0, b * x_max / r)
+        y = [c * scale for c in y]
+    return (min(x, x_max) * rm, *(c * rh for c in y))
 
 
 def adaptive_computed_torque(model, q, qd, q_d, qd_d, qdd_d, theta, lam, kd=None):
@@ -170,8 +186,9 @@ def adaptive_computed_torque(model, q, qd, q_d, qd_d, qdd_d, theta, lam, kd=None
     theta = validation.vector('theta', theta, 10)
     lam = validation.scalar('lam', lam, positive=True)
     kd = None if kd is None else per_joint('kd', kd, model.n)
-    qr_d, qr_dd = _reference_motion(q_d - q, qd_d - qd, qd_d, qdd_d, lam)
-    return validation.result('tau', _adaptive_computed_torque(model, q, qd, qr_d, qr_dd, theta, lam, kd)[0])
+    S = np.array((q_d - q, qd_d - qd, qd_d, qdd_d, qd))
+    return validation.result('tau', _adaptive_computed_torque(model, _reference_matrix(lam, kd is None), S, q, theta,
+                                                              kd)[0])
 
 
 def project_payload(theta, gamma, mass_max, com_max):
@@ -192,7 +209,7 @@ def _gamma_diagonal(name, gamma):
 
 
 def _check_model(model):
-    if not callable(getattr(model, '_dynamics_and_tip', None)) or not model.task_dim:
+    if not callable(getattr(model, '_tick_terms', None)) or not model.task_dim:
         raise ArgumentError('model', 'adaptive_computed_torque estimates the body carried by the tip: it needs a URDF '
                                      'model with a tip')
 
@@ -277,8 +294,9 @@ class AdaptiveComputedTorque(Law):
         self.rho = params.adaptive_prediction_rate
         self.prediction = (TorquePrediction(self.model.n, params.adaptive_prediction_cutoff_hz, MAX_ADAPTATION_STEP)
                            if self.rho > 0.0 else None)
+        self._L = _reference_matrix(self.lam, self.kd is None)
         self.theta = np.zeros(10)        # the estimate theta_hat
-        self._t = self._Y = self._s = None   # time, Y and s of the last tick
+        self._t = self._grad = None      # time and Y^T s of the last tick
 
     @property
     def payload(self):
@@ -290,26 +308,25 @@ class AdaptiveComputedTorque(Law):
         """The estimate of the same law on the same model goes on (projected on this law's bounds)."""
         if isinstance(old, AdaptiveComputedTorque) and old.model is self.model:
             self.theta = _project(old.theta, self.gamma, self.mass_max, self.com_max)
-            self._t, self._Y, self._s = old._t, old._Y, old._s
+            self._t, self._grad = old._t, old._grad
             if self.prediction is not None and old.prediction is not None:
                 self.prediction.continue_from(old.prediction)
 
     def torque(self, state, ref, err, int_E):
         self._adapt(state.t, state.qd)
-        qr_d, qr_dd = _reference_motion(err.E, err.Ed, ref.qd_d, ref.qdd_d, self.lam)
-        tau, self._Y, self._s, terms = _adaptive_computed_torque(self.model, state.q, state.qd, qr_d, qr_dd,
-                                                                 self.theta, self.lam, self.kd)
+        S = np.array((err.E, err.Ed, ref.qd_d, ref.qdd_d, state.qd))
+        tau, self._grad, terms = _adaptive_computed_torque(self.model, self._L, S, state.q, self.theta, self.kd)
         if self.prediction is not None:
-            self.prediction.record(state.t, state.qd, tau, *terms)
+            self.prediction.record_terms(state.t, state.qd, tau, *terms)
         return tau
 
     def _adapt(self, t, qd):
-        """theta_hat at t: one Euler step of theta_hat_dot from the last tick's Y, s and the prediction sampled
+        """theta_hat at t: one Euler step of theta_hat_dot from the last tick's Y^T s and the prediction sampled
         over the step to (t, qd), projected."""
         last, self._t = self._t, t
         sampled = self.prediction is not None and self.prediction.sample(t, qd)
         if last is None or not 0.0 < t - last <= MAX_ADAPTATION_STEP:
             return
         W, e = (self.prediction.W, self.prediction.error(self.theta)) if sampled else (None, None)
-        step = _adaptation_step(self.theta, self._Y, self._s, self.gamma, t - last, W, e, self.rho)
+        step = _adaptation_step(self.theta, self._grad, self.gamma, t - last, W, e, self.rho)
         self.theta = _project(step, self.gamma, self.mass_max, self.com_max)

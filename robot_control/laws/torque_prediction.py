@@ -20,12 +20,7 @@ import math
 
 import numpy as np
 
-from robot_control.models.urdf_model import tip_body_regressor
-
-
-def _prediction_sample(tau0, M0, h0, J0, Jdot0, a_g0, qd0, a):
-    """(W, r): W = Y(q0, qd0, qd0, a) (n, 10), r = tau0 - M0 a - h0 (n,), h0 = C0 qd0 + g0 at tick k-1."""
-    return tip_body_regressor(J0, Jdot0, a_g0, qd0, qd0, a), tau0 - M0 @ a - h0
+from robot_control.models.urdf_model import slotine_li_arguments, slotine_li_body_regressors
 
 
 class TorquePrediction:
@@ -34,27 +29,41 @@ class TorquePrediction:
 
     def __init__(self, n, cutoff_hz, max_step):
         self.cutoff_hz, self.max_step = cutoff_hz, max_step
-        self.W, self.r = np.zeros((n, 10)), np.zeros(n)
+        self._filtered, self._sample = np.zeros((n, 11)), np.empty((n, 11))    # [W | r], filtered and sampled
+        self.W, self.r = self._filtered[:, :10], self._filtered[:, 10]
+        self._z = np.empty((1, 42))
         self._last = None
         self._dt = self._alpha_dt = None
 
     def record(self, t, qd, tau, M, h, tip_motion):
         """The tick at t (s): velocity qd (n,), the law's torque tau (n,), the model's M (n, n) and
-        h = C qd + g (n,), the tip's (J, Jdot, a_g) (UrdfModel._tip_motion)."""
-        self._last = (t, qd, tau, M, h, tip_motion)
+        h = C qd + g (n,), the tip's (J, Jdot, a_g) (UrdfModel._tip_motion): record_terms of them."""
+        J, Jdot, a_g = tip_motion
+        self.record_terms(t, qd, tau, np.vstack((J, M)), h, J @ qd, Jdot @ qd - a_g)
+
+    def record_terms(self, t, qd, tau, JM, h, v, b):
+        """The tick at t (s) as record's terms: qd, tau, h (n,); JM = [J; M] (6 + n, n); the tip's velocity
+        v = J qd and b = Jdot qd - a_g (6,) each."""
+        self._last = (t, qd, tau - h, JM, v, b)
 
     def sample(self, t, qd):
-        """Filter in the step from the last recorded tick to (t, qd): True when a step was sampled."""
+        """Filter in the step from the last recorded tick to (t, qd): True when a step was sampled. The sample
+        [W | r] (n, 11): W = J0^T Y_b(v0, v0, J0 a + b0) (slotine_li_body_regressors), r = (tau0 - h0) - M0 a,
+        with a = (qd - qd0) / (t - t0) and J0 a, M0 a from one product."""
         if self._last is None:
             return False
-        t0, qd0, tau0, M0, h0, (J0, Jdot0, a_g0) = self._last
+        t0, qd0, c0, JM0, v0, b0 = self._last
         dt = t - t0
         if not 0.0 < dt <= self.max_step:
             return False
-        W, r = _prediction_sample(tau0, M0, h0, J0, Jdot0, a_g0, qd0, (qd - qd0) / dt)
-        alpha = self._alpha(dt)
-        self.W += alpha * (W - self.W)
-        self.r += alpha * (r - self.r)
+        JMa = JM0 @ ((qd - qd0) / dt)
+        slotine_li_arguments(self._z, v0, v0, JMa[:6] + b0)
+        sample, filtered = self._sample, self._filtered
+        np.matmul(JM0[:6].T, slotine_li_body_regressors(self._z)[0], out=sample[:, :10])
+        np.subtract(c0, JMa[6:], out=sample[:, 10])
+        sample -= filtered                  # x_f += alpha (x - x_f), W and r at once
+        sample *= self._alpha(dt)
+        filtered += sample
         return True
 
     def _alpha(self, dt):
@@ -69,4 +78,5 @@ class TorquePrediction:
 
     def continue_from(self, old):
         """Take over another prediction's filter and last tick (same model)."""
-        self.W, self.r, self._last = old.W.copy(), old.r.copy(), old._last
+        self._filtered[...] = old._filtered
+        self._last = old._last

@@ -167,6 +167,9 @@ class UrdfModel(RobotModel):
         if tip is not None:
             self.tip, self.frame_id = tip, _frame(model, tip)
             self._tip_joint = model.frames[self.frame_id].parentJoint     # the joint that carries the tip
+            #: scratch [J | Jdot | gravity] (6, 2n + 1) in world axes, carried to the tip frame by one product
+            self._tip_world = np.empty((6, 2 * n + 1))
+            self._tip_world[:, 2 * n] = self._gravity
             moving = set(model.supports[self._tip_joint])
             self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
         self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
@@ -299,25 +302,37 @@ class UrdfModel(RobotModel):
         vectors (linear, then angular) in the tip frame at (q, qd), from one kinematics pass: the tip's
         velocity is J qd and its acceleration J qdd + Jdot qd; a_g the world's gravity carried to the frame."""
         pin.computeJointJacobiansTimeVariation(self.model, self._data, self._map.q(q), self._map.v(qd))
-        return self._tip_frames()
+        n = self.n
+        tip = self._tip_frames(np.empty((6, 2 * n + 1)))
+        return tip[:, :n], tip[:, n:2 * n], tip[:, 2 * n]
 
-    def _tip_frames(self):
-        """_tip_motion's (J, Jdot, a_g) from the joints' Jacobians and their rates a pass left in data
-        (computeJointJacobiansTimeVariation, computeCoriolisMatrix)."""
-        model, data, joint = self.model, self._data, self._tip_joint
+    def _tip_frames(self, out):
+        """out (6, 2n + 1) = [J | Jdot | a_g] of _tip_motion, from the joints' Jacobians and their rates a pass
+        left in data (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them
+        and the world's gravity to the tip frame."""
+        model, data, joint, n, world = self.model, self._data, self._tip_joint, self.n, self._tip_world
         to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
-        J, Jdot = pin.getJointJacobian(model, data, joint, pin.WORLD), pin.getJointJacobianTimeVariation(
-            model, data, joint, pin.WORLD)
-        if not self._map.identity:
-            J, Jdot = J[:, self._map.iv], Jdot[:, self._map.iv]
-        return to_tip @ J, to_tip @ Jdot, to_tip @ self._gravity
+        cols = slice(None) if self._map.identity else self._map.iv
+        world[:, :n] = pin.getJointJacobian(model, data, joint, pin.WORLD)[:, cols]
+        world[:, n:2 * n] = pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD)[:, cols]
+        return np.matmul(to_tip, world, out=out)
+
+    def _tick_terms(self, q, qd):
+        """K (6 + n, 2n + 1) = [[J, Jdot, a_g], [M, C, g]]: _tip_motion's and _M, _C, _g at (q, qd), the tip's
+        from the Coriolis matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in
+        data); side by side, so that one product applies J and Jdot, M and C, and J with M."""
+        n = self.n
+        K = np.empty((6 + n, 2 * n + 1))
+        K[6:, n:2 * n] = self._C(q, qd)
+        self._tip_frames(K[:6])
+        K[6:, :n] = self._M(q)
+        K[6:, 2 * n] = self._g(q)
+        return K
 
     def _dynamics_and_tip(self, q, qd):
-        """(M, C, g, (J, Jdot, a_g)): _M, _C, _g and _tip_motion at (q, qd), the tip's from the Coriolis
-        matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in data)."""
-        C = self._C(q, qd)
-        tip = self._tip_frames()
-        return self._M(q), C, self._g(q), tip
+        """(M, C, g, (J, Jdot, a_g)): _tick_terms apart."""
+        K, n = self._tick_terms(q, qd), self.n
+        return K[6:, :n], K[6:, n:2 * n], K[6:, 2 * n], (K[:6, :n], K[:6, n:2 * n], K[:6, 2 * n])
 
     def _tip_regressor(self, q, qd, qr_d, qr_dd):
         """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
@@ -387,24 +402,26 @@ class UrdfModel(RobotModel):
 def tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd):
     """Y (n, 10) = J^T Y_b(v, v_r, a_r): a body's share, Y pi, of M(q) qr_dd + C(q, qd) qr_d + g(q) when it is
     carried by a frame with Jacobian J, its rate Jdot (6, n) and gravity a_g (6,) in that frame (UrdfModel
-    ._tip_motion), with v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g (_slotine_li_body_regressor,
-    evaluated by its coefficients: [a_r, (v v_r^T).ravel()] @ _SLOTINE_LI_COEFFICIENTS); vectors (n,) rad/s, rad/s^2."""
-    z = np.empty(42)
-    z[:6] = J @ qr_dd + Jdot @ qr_d - a_g
-    np.outer(J @ qd, J @ qr_d, out=z[6:].reshape(6, 6))
-    return J.T @ (z @ _SLOTINE_LI_COEFFICIENTS).reshape(6, 10)
+    ._tip_motion), with v = J qd, v_r = J qr_d, a_r = J qr_dd + Jdot qr_d - a_g (slotine_li_body_regressors);
+    vectors (n,) rad/s, rad/s^2."""
+    z = np.empty((1, 42))
+    slotine_li_arguments(z, J @ qd, J @ qr_d, J @ qr_dd + Jdot @ qr_d - a_g)
+    return J.T @ slotine_li_body_regressors(z)[0]
 
 
-def tip_inertia_regressor(J, x):
-    """Y_x (n, 10) = J^T A(J x): a body's share, Y_x pi, of M(q) x when it is carried by a frame with Jacobian
-    J (6, n) (UrdfModel._tip_motion); x (n,) (A: _body_regressor)."""
-    return J.T @ _body_regressor(J @ x)
+def slotine_li_arguments(z, v, v_r, a_r):
+    """Fill z (k, 42), row i = [a_r_i, (v v_r^T).ravel()], the arguments of slotine_li_body_regressors: k
+    evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row."""
+    z[:, :6] = a_r
+    np.multiply(v[:, None], v_r, out=z[0, 6:].reshape(6, 6))
+    if len(z) > 1:
+        z[1:, 6:] = z[0, 6:]
 
 
-def _body_regressor(a):
-    """A(a) (6, 10): the wrench I a = A(a) pi of a body's spatial inertia I on a spatial vector a (6,), linear in
-    its inertial parameters pi and in a: sum_i a_i A(e_i), A(e_i) = pinocchio.bodyRegressor(0, e_i)."""
-    return (a @ _BODY_REGRESSOR_BASIS).reshape(6, 10)
+def slotine_li_body_regressors(z):
+    """Y_b (k, 6, 10) = _slotine_li_body_regressor(v, v_r, a_r) per row of z (k, 42) (slotine_li_arguments),
+    evaluated by its coefficients: z @ _SLOTINE_LI_COEFFICIENTS, one product for the k rows."""
+    return (z @ _SLOTINE_LI_COEFFICIENTS).reshape(-1, 6, 10)
 
 
 def _slotine_li_body_regressor(v, v_r, a_r):
@@ -412,7 +429,8 @@ def _slotine_li_body_regressor(v, v_r, a_r):
     linear in its inertial parameters pi, bilinear in its velocity v and the reference's v_r, with a_r
     the reference's acceleration (spatial vectors (6,), one frame, where pi is given). With v_r = v it is
     the Newton-Euler wrench I a + v x* I v; the 1/2 terms are Pinocchio's Coriolis matrix of one body,
-    the split of v x* I v that makes Mdot - 2C skew (Slotine and Li's requirement). A: _body_regressor."""
+    the split of v x* I v that makes Mdot - 2C skew (Slotine and Li's requirement). A(a) (6, 10): the wrench
+    I a = A(a) pi of the spatial vector a, linear in a: sum_i a_i A(e_i), A(e_i) = pinocchio.bodyRegressor(0, e_i)."""
     v_m, v_r_m = pin.Motion(v), pin.Motion(v_r)
     A_a, A_v_r, A_v, A_cross = (np.array((a_r, v_r, v, v_m.cross(v_r_m).vector)) @ _BODY_REGRESSOR_BASIS).reshape(4, 6, 10)
     return A_a + 0.5 * (v_m.dualAction @ A_v_r - A_cross + v_r_m.dualAction @ A_v)
@@ -431,7 +449,7 @@ def _slotine_li_coefficients():
     return np.stack([r.ravel() for r in rows])
 
 
-#: the coefficients of _slotine_li_body_regressor (tip_body_regressor's evaluation: one product per tick)
+#: the coefficients of _slotine_li_body_regressor (slotine_li_body_regressors' evaluation: one product)
 _SLOTINE_LI_COEFFICIENTS = _slotine_li_coefficients()
 
 
