@@ -495,6 +495,12 @@ REAL_REPETITIONS = 3       # out-and-back moves of the adaptive experiment
 IDENTIFY_AT = 2.7          # s: the identify experiment calls ~/identify_payload, holding the move's goal since 2.2 s
 IDENTIFY_MOVE_TIME = 1.0   # s: payload_identification.move_time of the identify experiment (7 poses, 8 moves)
 IDENTIFY_DURATION = 18.0   # s: the identify experiment's run, about 1.5 s of hold after the identification
+#: rad/s: payload_identification.settle_velocity of the identify experiment: above one encoder count per tick (the
+#: typical profiles' 1.8e-4 and 1.2e-4 rad in 1 ms: 0.18 and 0.12 rad/s), which the measured velocity shows at
+#: rest and which the default 0.05 rad/s takes for motion (the Panda's sampling then restarts for 20 s)
+IDENTIFY_SETTLE_VELOCITY = 0.3
+IDENTIFY = {'payload_identification.move_time': IDENTIFY_MOVE_TIME,
+            'payload_identification.settle_velocity': IDENTIFY_SETTLE_VELOCITY}
 #: the real-arm experiments' variants: (title, law, controller overrides but the friction's, friction scale or None)
 REAL_VARIANTS = {
     'move': ("joint impedance and its integral with friction compensation at the profile's values",
@@ -508,10 +514,10 @@ REAL_VARIANTS = {
                  f'out and back {REAL_REPETITIONS} times', 'adaptive_computed_torque', {}, 1.0),
     'identify': ('joint impedance with friction compensation holding an unknown 2 kg payload 5 cm out, which '
                  f'~/identify_payload identifies at {IDENTIFY_AT:g} s (moves of {IDENTIFY_MOVE_TIME:g} s) and the '
-                 'law then uses', 'joint_impedance', {'payload_identification.move_time': IDENTIFY_MOVE_TIME}, 1.0),
+                 'law then uses', 'joint_impedance', IDENTIFY, 1.0),
     'identify_exact_masses': ("the same on the typical robot with the model's link masses and inertias (the profile's "
                               '+10 % removed)', 'joint_impedance',
-                              {'payload_identification.move_time': IDENTIFY_MOVE_TIME}, 1.0),
+                              IDENTIFY, 1.0),
 }
 
 
