@@ -333,13 +333,14 @@ def controller_params(experiment):
 class Schedule:
     """The experiment's timed changes, each made while the bridge stands still: changes of its run-time
     parameters ((t, {name: value}), ...), force references ((t, f per axis), ...) and service calls ((t,
-    std_srvs/Trigger service, (controller parameter, ...)), ...). The bridge pauses itself at the next change's
+    std_srvs/Trigger service, started, (controller parameter, ...)), ...). The bridge pauses itself at the next change's
     time (its pause_at, armed for the next change), the changes due are made and it resumes.
 
-    A service call is made from the tick the bridge paused at; the bridge then runs on, pause_at disarmed, until
-    the service answers (its work may need the simulation: ~/identify_payload moves the arm), then the named
-    parameters of the controller are read and pause_at is armed for the next change (one already past is made
-    at once). `calls` lists them: [{'t': t s, 't_called', 't_answered': the ticks (s) the bridge stood at or had
+    A service call is made while the bridge stands at the tick it paused at, and once the controller has logged
+    the call's `started` text (the work begins at that tick: runs repeat exactly) the bridge runs on, pause_at
+    disarmed, until the service answers (its work may need the simulation: ~/identify_payload moves the arm);
+    then the named parameters of the controller are read and pause_at is armed for the next change (one already
+    past is made at once). `calls` lists them: [{'t': t s, 't_called', 't_answered': the ticks (s) the bridge stood at or had
     reached, 'service', 'success', 'message', 'parameters': {name: value}}].
 
     A parameter change acts from the tick the bridge paused at (its step to the next tick is the first with
@@ -359,7 +360,7 @@ class Schedule:
         sent = [0.0] + [0.5 * (a[0] + b[0]) for a, b in zip(forces, forces[1:])]
         changes = ([(s, self.FORCE, t, f) for s, (t, f) in zip(sent, forces)]
                    + [(t, self.BRIDGE, t, values) for t, values in events]
-                   + [(t, self.CALL, t, (service, tuple(names))) for t, service, names in calls])
+                   + [(t, self.CALL, t, (service, started, tuple(names))) for t, service, started, names in calls])
         self.events = sorted(changes, key=lambda change: change[:2])
         self.applied = []
         self.calls = []
@@ -407,12 +408,17 @@ class Schedule:
                      flush=True)
         live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
 
-    def _call(self, live, t_ev, t_now, service, names):
-        """Call `service` with the bridge running until it answers; record the answer and the controller's
-        parameters `names` in `calls`."""
+    def _call(self, live, t_ev, t_now, service, started, names):
+        """Call `service`, the bridge standing until the controller logs `started` and then running until the
+        service answers; record the answer and the controller's parameters `names` in `calls`."""
         self.say(f'[demo] calling {service} at t = {t_now:.3f} s (due at t = {t_ev:.3f} s)', flush=True)
+        control, mark = live.control, len(live.control.log)
+        future = control.call_trigger(service, poll=live.alive)
+        control.spin_until(lambda: future.done() or control.controller_said(started, mark) is not None,
+                           CONFIRM_TIMEOUT, live.alive, f'the controller to start {service}')
         live.resume()
-        success, message = live.control.call_trigger(service, CALL_TIMEOUT, poll=live.alive)
+        control.spin_until(future.done, CALL_TIMEOUT, live.alive, f'{service} to answer')
+        success, message = bool(future.result().success), future.result().message
         t_answered = ((live.collector.last_stamp_ns() or 0) - self.origin_ns) / NS
         params = live.control.get_parameters('controller', names, poll=live.alive) if names else {}
         self.calls.append({'t': t_ev, 't_called': t_now, 't_answered': t_answered, 'service': service,

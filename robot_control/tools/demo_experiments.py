@@ -78,8 +78,9 @@ class Experiment:
     force: tuple = None                       # initial f_d per force axis, N (controller parameter)
     force_events: tuple = ()                  # ((t, (f per force axis)), ...) wrench references
     bridge_events: tuple = ()                 # ((t, {bridge parameter: value}), ...) set at run time
-    service_calls: tuple = ()                 # ((t, std_srvs/Trigger service, (controller parameter, ...)), ...):
-                                              # called at t, the bridge running until it answers, then
+    service_calls: tuple = ()                 # ((t, std_srvs/Trigger service, the controller's log text when
+                                              # its work starts, (controller parameter, ...)), ...): called at
+                                              # t, the bridge running from that text until it answers, then
                                               # those parameters of the controller read (demo.Schedule)
     settle_from: float = 0.0                  # s: start of the change the settling time refers to
     force_window: object = 0.0                # s: force metrics use t >= force_window ("after settling"),
@@ -494,7 +495,7 @@ REAL_HOLD = 30.0           # s of the hold experiment
 REAL_REPETITIONS = 3       # out-and-back moves of the adaptive experiment
 IDENTIFY_AT = 2.7          # s: the identify experiment calls ~/identify_payload, holding the move's goal since 2.2 s
 IDENTIFY_MOVE_TIME = 1.0   # s: payload_identification.move_time of the identify experiment (7 poses, 8 moves)
-IDENTIFY_DURATION = 18.0   # s: the identify experiment's run, about 1.5 s of hold after the identification
+IDENTIFY_DURATION = 21.0   # s: the identify experiment's run: the identification ends at 15-18.5 s
 #: rad/s: payload_identification.settle_velocity of the identify experiment: above one encoder count per tick (the
 #: typical profiles' 1.8e-4 and 1.2e-4 rad in 1 ms: 0.18 and 0.12 rad/s), which the measured velocity shows at
 #: rest and which the default 0.05 rad/s takes for motion (the Panda's sampling then restarts for 20 s)
@@ -556,7 +557,7 @@ def _real_arm(scenario, variant):
         bridge.update(PAYLOAD)
         if variant == 'identify_exact_masses':
             bridge.update({f'sim_params.{k}': [1.0] * len(q0) for k in ('mass_scale', 'inertia_scale')})
-        calls = ((IDENTIFY_AT, '/controller/identify_payload', ('payload.mass', 'payload.com')),)
+        calls = ((IDENTIFY_AT, '/controller/identify_payload', 'identifying the payload', ('payload.mass', 'payload.com')),)
         duration, figures = IDENTIFY_DURATION, ('identify',)
     return Experiment(f'{scenario}_real_{variant}', scenario,
                       f'{REAL_NAMES[scenario]}, typical robot: {REAL_MOVE:g} rad on every joint in '

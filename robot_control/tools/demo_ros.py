@@ -191,16 +191,13 @@ class RunControl:
         self.spin_until(client.services_are_ready, timeout, poll, f'the parameter services of /{node_name}')
         return client
 
-    def call_trigger(self, service, timeout, poll=None):
-        """Call the std_srvs/Trigger `service` and spin until it answers (at most `timeout` s of wall time, which
-        covers the service's own work); (success, message)."""
+    def call_trigger(self, service, poll=None):
+        """Call the std_srvs/Trigger `service` once it is there; the future of its answer."""
         if service not in self.trigger_clients:
             self.trigger_clients[service] = self.node.create_client(Trigger, service)
         client = self.trigger_clients[service]
         self.spin_until(client.service_is_ready, STARTUP_WAIT, poll, f'the service {service}')
-        future = client.call_async(Trigger.Request())
-        self.spin_until(future.done, timeout, poll, f'{service} to answer')
-        return bool(future.result().success), future.result().message
+        return client.call_async(Trigger.Request())
 
     def controller_said(self, text, since=0):
         """Index of the first controller log line after `since` containing `text`, or None."""

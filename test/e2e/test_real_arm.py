@@ -11,7 +11,7 @@ Every joint moves 0.5 rad in 2 s, then is held to 3.2 s:
     RMS <= 1.1 mrad, final <= 0.6 mrad (checked within the same targets);
   - computed torque with the scenario's gains on the same robot: the iiwa's wrist never leaves its start
     (final error 0.5 rad on joints 5-7), the Panda ends up to 0.09 rad short (checked: > 10x the targets).
-And the payload identified (<arm>_real_identify, 18 s): joint impedance with friction compensation holding the
+And the payload identified (<arm>_real_identify, 21 s): joint impedance with friction compensation holding the
 move's goal with a 2 kg payload 5 cm out on the flange that the controller is not told of; at 2.7 s the demo calls
 /controller/identify_payload with the bridge running until it answers (7 poses). The links being 10 % heavier
 than the model, part of their gravity torque is taken for payload (measured: iiwa 2.69 kg, com 42 mm off; Panda
