@@ -15,9 +15,10 @@ And the payload identified (<arm>_real_identify, 21 s): joint impedance with fri
 move's goal with a 2 kg payload 5 cm out on the flange that the controller is not told of; at 2.7 s the demo calls
 /controller/identify_payload with the bridge running until it answers (7 poses). The links being 10 % heavier
 than the model, part of their gravity torque is taken for payload (measured: iiwa 2.69 kg, com 42 mm off; Panda
-see docs/results.md), but the hold error with the identified payload drops (measured: iiwa 16.6 -> 4.0 mrad):
-checked, the answer within 40 % in mass and the hold error at the end below half of the one before the call.
-Eight runs, two at a time. The 30 s hold, the adaptive move and the identification with the model's link masses
+2.34 kg, 37 mm off), but the hold error with the identified payload drops (measured: iiwa 16.6 -> 4.0 mrad, Panda
+22.7 -> 4.1 mrad): checked, the answer within 40 % in mass and the hold error at the end below half of the one
+before the call. Eight runs, two at a time: 76 s of wall time measured on the loaded 2-core machine (the same
+figures as the demo's runs: lockstep repeats). The 30 s hold, the adaptive move and the identification with the model's link masses
 (demo experiments <arm>_real_hold, <arm>_real_adaptive, <arm>_real_identify_exact_masses) are measured in
 docs/results.md.
 """
