@@ -94,7 +94,7 @@ MAX_LISTED = 3   # coordinates listed one by one in a cell; more: the largest on
 COLUMNS = ('experiment', 'scenario', 'law', 'mode', 'sim time', 'RMS error', 'max error', 'steady-state error',
            'settling time', 'force RMS error', 'saturated ticks', 'loop rate', 'latency p50 / p99', 'figures')
 #: unit suffixes of the names of an experiment's own figures (summary 'figures'); a name without one is a ratio
-FIGURE_UNITS = ('m', 'rad', 's', 'N')
+FIGURE_UNITS = ('m', 'rad', 's', 'N', 'kg')
 
 
 def number(x, unit=''):

@@ -69,6 +69,7 @@ REPAIR_TIMEOUT = 8.0
 FIRST_TICK = ('/joint_states', '/robot_joint_commands', '/controller/reference', '/controller/error',
               '/ft_sensor/wrench')
 CONFIRM_TIMEOUT = 10.0    # s for the controller to confirm a reference
+CALL_TIMEOUT = 600.0      # s of wall time for a service call of the experiment to answer (payload_service.TIMEOUT)
 #: the physics engines of --engine (the first is the bridge's default); 'both' runs each
 ENGINES = ('pybullet', 'mujoco')
 #: engines agree on tracking when their RMS differ by < RMS_ATOL (rad or m) or < RMS_RTOL of the larger,
@@ -260,7 +261,8 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
                          [realism[1]] if realism[1] else [])
         origin_ns = live.wait_for_first_tick(mode)
         live.send_references(joints, experiment.trajectory, origin_ns)
-        changes = Schedule(experiment.bridge_events, origin_ns, say, experiment.force_events, f_names)
+        changes = Schedule(experiment.bridge_events, origin_ns, say, experiment.force_events, f_names,
+                           experiment.service_calls)
         changes.arm(live)
         live.resume()
         end_ns = origin_ns + int(round(duration * NS))
@@ -278,7 +280,7 @@ def _run(experiment, mode, duration, out_dir, record, plot, domain_id, write, ke
         result.exit_codes = live.stop_nodes()
         data = demo_ros.align(live.collector, joints, experiment.units, f_names, f_index, law, origin_ns, end_ns,
                               limits, lockstep=mode == 'lockstep')
-        data.events = changes.applied
+        data.events, data.calls = changes.applied, changes.calls
     result.summary = summarize_run(data, experiment, mode, duration, wall, domain_id, record, plot, say)
     result.summary['realism'] = realism[0]
     result.summary['engine'] = engine
@@ -315,9 +317,16 @@ def controller_params(experiment):
 
 class Schedule:
     """The experiment's timed changes, each made while the bridge stands still: changes of its run-time
-    parameters ((t, {name: value}), ...) and force references ((t, f per axis), ...). The bridge pauses itself
-    at the next change's time (its pause_at, armed for the next change), the changes due are made and it
-    resumes.
+    parameters ((t, {name: value}), ...), force references ((t, f per axis), ...) and service calls ((t,
+    std_srvs/Trigger service, started, (controller parameter, ...)), ...). The bridge pauses itself at the next change's
+    time (its pause_at, armed for the next change), the changes due are made and it resumes.
+
+    A service call is made while the bridge stands at the tick it paused at, and once the controller has logged
+    the call's `started` text (the work begins at that tick: runs repeat exactly) the bridge runs on, pause_at
+    disarmed, until the service answers (its work may need the simulation: ~/identify_payload moves the arm);
+    then the named parameters of the controller are read and pause_at is armed for the next change (one already
+    past is made at once). `calls` lists them: [{'t': t s, 't_called', 't_answered': the ticks (s) the bridge stood at or had
+    reached, 'service', 'success', 'message', 'parameters': {name: value}}].
 
     A parameter change acts from the tick the bridge paused at (its step to the next tick is the first with
     it), the first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s,
@@ -326,18 +335,20 @@ class Schedule:
     before it and t) and the controller confirms that it holds it: it applies it at exactly the first tick at
     or past t, however late the wall clock would have delivered it, so lockstep runs repeat exactly."""
 
-    BRIDGE, FORCE = 1, 0     # the order of two changes at one time: the force reference first
+    BRIDGE, FORCE, CALL = 1, 0, 2     # the order of changes at one time: force reference, parameters, call
 
-    def __init__(self, events, origin_ns, say, forces=(), axes=()):
+    def __init__(self, events, origin_ns, say, forces=(), axes=(), calls=()):
         self.origin_ns = origin_ns
         self.say = say
         self.axes = axes
         forces = sorted(forces)
         sent = [0.0] + [0.5 * (a[0] + b[0]) for a, b in zip(forces, forces[1:])]
         changes = ([(s, self.FORCE, t, f) for s, (t, f) in zip(sent, forces)]
-                   + [(t, self.BRIDGE, t, values) for t, values in events])
+                   + [(t, self.BRIDGE, t, values) for t, values in events]
+                   + [(t, self.CALL, t, (service, started, tuple(names))) for t, service, started, names in calls])
         self.events = sorted(changes, key=lambda change: change[:2])
         self.applied = []
+        self.calls = []
 
     def _due_ns(self):
         """The simulation time, ns, of the next change."""
@@ -371,11 +382,34 @@ class Schedule:
                 self.say(f'[demo] force reference {dict(zip(self.axes, change))} N from t = {t_ev:.3f} s (sent at '
                          f't = {t_now:.3f} s)', flush=True)
                 continue
+            if kind == self.CALL:
+                live.control.set_bridge_parameters({**values, 'pause_at': -1.0}, poll=live.alive)
+                values = {}
+                self._call(live, t_ev, t_now, *change)
+                continue
             values.update(change)
             self.applied.append({'t': t_ev, 't_applied': t_now, 'parameters': dict(change)})
             self.say(f'[demo] bridge parameters {change} from t = {t_now:.3f} s (due at t = {t_ev:.3f} s)',
                      flush=True)
         live.control.set_bridge_parameters({**values, **self._pause_at()}, poll=live.alive)
+
+    def _call(self, live, t_ev, t_now, service, started, names):
+        """Call `service`, the bridge standing until the controller logs `started` and then running until the
+        service answers; record the answer and the controller's parameters `names` in `calls`."""
+        self.say(f'[demo] calling {service} at t = {t_now:.3f} s (due at t = {t_ev:.3f} s)', flush=True)
+        control, mark = live.control, len(live.control.log)
+        future = control.call_trigger(service, poll=live.alive)
+        control.spin_until(lambda: future.done() or control.controller_said(started, mark) is not None,
+                           CONFIRM_TIMEOUT, live.alive, f'the controller to start {service}')
+        live.resume()
+        control.spin_until(future.done, CALL_TIMEOUT, live.alive, f'{service} to answer')
+        success, message = bool(future.result().success), future.result().message
+        t_answered = ((live.collector.last_stamp_ns() or 0) - self.origin_ns) / NS
+        params = live.control.get_parameters('controller', names, poll=live.alive) if names else {}
+        self.calls.append({'t': t_ev, 't_called': t_now, 't_answered': t_answered, 'service': service,
+                           'success': success, 'message': message, 'parameters': params})
+        self.say(f'[demo] {service} answered by t = {t_answered:.3f} s: {"" if success else "failed: "}{message}',
+                 flush=True)
 
 
 class LiveRun:
@@ -590,6 +624,8 @@ def summarize_run(data, experiment, mode, duration, wall, domain_id, record, plo
         say(f'[demo] warning: {len(data.lost[worst])} of {data.expected_ticks} ticks did not reach the '
             f'collector ({worst}, t = {spans} s); the metrics use the others', flush=True)
     summary['bridge_events'] = list(data.events)
+    if data.calls:
+        summary['service_calls'] = list(data.calls)
     summary['bag'] = 'bag' if record else None
     summary['figure'] = 'tracking.png' if plot else None
     return summary

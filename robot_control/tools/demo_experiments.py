@@ -80,6 +80,10 @@ class Experiment:
     force: tuple = None                       # initial f_d per force axis, N (controller parameter)
     force_events: tuple = ()                  # ((t, (f per force axis)), ...) wrench references
     bridge_events: tuple = ()                 # ((t, {bridge parameter: value}), ...) set at run time
+    service_calls: tuple = ()                 # ((t, std_srvs/Trigger service, the controller's log text when
+                                              # its work starts, (controller parameter, ...)), ...): called at
+                                              # t, the bridge running from that text until it answers, then
+                                              # those parameters of the controller read (demo.Schedule)
     settle_from: float = 0.0                  # s: start of the change the settling time refers to
     force_window: object = 0.0                # s: force metrics use t >= force_window ("after settling"),
                                               # or ((t0, t1), ...): the union of these intervals
@@ -491,6 +495,15 @@ REAL_STIFFNESS = {'iiwa': (1000.0, 1000.0, 600.0, 600.0, 250.0, 150.0, 50.0),
 REAL_FRICTION_ERROR = 0.7  # the friction estimate 30 % off: the profile's values times this
 REAL_HOLD = 30.0           # s of the hold experiment
 REAL_REPETITIONS = 3       # out-and-back moves of the adaptive experiment
+IDENTIFY_AT = 2.7          # s: the identify experiment calls ~/identify_payload, holding the move's goal since 2.2 s
+IDENTIFY_MOVE_TIME = 1.0   # s: payload_identification.move_time of the identify experiment (7 poses, 8 moves)
+IDENTIFY_DURATION = 21.0   # s: the identify experiment's run: the identification ends at 15-18.5 s
+#: rad/s: payload_identification.settle_velocity of the identify experiment: above one encoder count per tick (the
+#: typical profiles' 1.8e-4 and 1.2e-4 rad in 1 ms: 0.18 and 0.12 rad/s), which the measured velocity shows at
+#: rest and which the default 0.05 rad/s takes for motion (the Panda's sampling then restarts for 20 s)
+IDENTIFY_SETTLE_VELOCITY = 0.3
+IDENTIFY = {'payload_identification.move_time': IDENTIFY_MOVE_TIME,
+            'payload_identification.settle_velocity': IDENTIFY_SETTLE_VELOCITY}
 #: the real-arm experiments' variants: (title, law, controller overrides but the friction's, friction scale or None)
 REAL_VARIANTS = {
     'move': ("joint impedance and its integral with friction compensation at the profile's values",
@@ -502,6 +515,12 @@ REAL_VARIANTS = {
              'joint_impedance', {'integral': True, 'integral_rest_velocity': 0.01}, 1.0),
     'adaptive': (f'adaptive computed torque with friction compensation, an unknown 2 kg payload 5 cm out, the move '
                  f'out and back {REAL_REPETITIONS} times', 'adaptive_computed_torque', {}, 1.0),
+    'identify': ('joint impedance with friction compensation holding an unknown 2 kg payload 5 cm out, which '
+                 f'~/identify_payload identifies at {IDENTIFY_AT:g} s (moves of {IDENTIFY_MOVE_TIME:g} s) and the '
+                 'law then uses', 'joint_impedance', IDENTIFY, 1.0),
+    'identify_exact_masses': ("the same on the typical robot with the model's link masses and inertias (the profile's "
+                              '+10 % removed)', 'joint_impedance',
+                              IDENTIFY, 1.0),
 }
 
 
@@ -525,7 +544,7 @@ def _real_arm(scenario, variant):
     if law == 'joint_impedance':
         controller['joint_stiffness'] = list(REAL_STIFFNESS[scenario])
     bridge = {'initial_positions': list(q0), 'surface.enable': False}
-    t0, duration, figures = 0.2, 3.2, ()
+    t0, duration, figures, calls = 0.2, 3.2, (), ()
     traj = TrajectorySpec(t0, (REAL_MOVE_TIME,), (goal,))
     if variant == 'hold':
         duration, figures = REAL_HOLD, ('hold',)
@@ -535,10 +554,16 @@ def _real_arm(scenario, variant):
         rest = tuple((0.0,) * len(q0) for _ in times)
         traj = TrajectorySpec(t0, times, tuple((goal, q0)[k % 2] for k in range(len(times))), rest, rest)
         duration, figures = t0 + times[-1] + 0.5, ('repetitions',)
+    elif variant.startswith('identify'):
+        bridge.update(PAYLOAD)
+        if variant == 'identify_exact_masses':
+            bridge.update({f'sim_params.{k}': [1.0] * len(q0) for k in ('mass_scale', 'inertia_scale')})
+        calls = ((IDENTIFY_AT, '/controller/identify_payload', 'identifying the payload', ('payload.mass', 'payload.com')),)
+        duration, figures = IDENTIFY_DURATION, ('identify',)
     return Experiment(f'{scenario}_real_{variant}', scenario,
                       f'{REAL_NAMES[scenario]}, typical robot: {REAL_MOVE:g} rad on every joint in '
                       f'{REAL_MOVE_TIME:g} s, {title}', duration=duration, law=law, controller=controller,
-                      bridge=bridge, trajectory=traj, settle_from=t0, figures=figures)
+                      bridge=bridge, trajectory=traj, settle_from=t0, figures=figures, service_calls=calls)
 
 
 _BUILDERS = {

@@ -65,6 +65,8 @@ class RunData:
         self.state_wall_ns = None if state_wall_ns is None else np.asarray(state_wall_ns, dtype=np.int64)
         self.cmd_wall_ns = None if cmd_wall_ns is None else np.asarray(cmd_wall_ns, dtype=np.int64)
         self.events = []    # the bridge's parameter changes: [{'t', 't_applied', 'parameters'}] (demo.Schedule)
+        self.calls = []     # the service calls: [{'t', 't_called', 't_answered', 'service', 'success', 'message',
+                            # 'parameters'}] (demo.Schedule)
 
     @property
     def samples(self):
@@ -262,9 +264,32 @@ def repetition_figures(data, experiment):
     return out
 
 
+IDENTIFY_WINDOW = 0.25   # s: the hold before the call and the run's end over which identify_figures measures the error
+
+
+def identify_figures(data, experiment):
+    """The first service call's payload (the controller's payload.mass and .com read after it) against the
+    bridge's (experiment.bridge): payload_mass_kg, payload_mass_error (relative), payload_com_error_m (the
+    distance); hold_error_before_rad / _after_rad: the largest RMS error of a joint over the IDENTIFY_WINDOW s
+    before the call and over the run's last IDENTIFY_WINDOW s (None: the answer came after it began)."""
+    call = data.calls[0]
+    mass, com = call['parameters']['payload.mass'], np.asarray(call['parameters']['payload.com'])
+    true_mass, true_com = experiment.bridge['payload.mass'], np.asarray(experiment.bridge['payload.com'])
+    e, t = data.motion_error(), data.t
+
+    def hold_error(t0, t1):
+        inside = (t >= t0) & (t < t1)
+        return float(np.max(rms(e[inside]))) if np.any(inside) else None
+    after = t[-1] - IDENTIFY_WINDOW
+    return {'payload_mass_kg': float(mass), 'payload_mass_error': float(mass / true_mass - 1.0),
+            'payload_com_error_m': float(np.linalg.norm(com - true_com)),
+            'hold_error_before_rad': hold_error(call['t_called'] - IDENTIFY_WINDOW, call['t_called']),
+            'hold_error_after_rad': hold_error(after, t[-1] + 1.0) if call['t_answered'] <= after else None}
+
+
 #: Experiment.figures name -> fn(data, experiment) -> {figure: value (SI; the name ends with its unit)}
 FIGURES = {'push': push_figures, 'pose': pose_figures, 'orientation': orientation_figures, 'drift': drift_figures,
-           'hold': hold_figures, 'repetitions': repetition_figures}
+           'hold': hold_figures, 'repetitions': repetition_figures, 'identify': identify_figures}
 
 
 def summarize(data, experiment, mode, duration, wall_time_s=None):

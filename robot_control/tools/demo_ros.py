@@ -19,7 +19,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
-from std_srvs.srv import SetBool
+from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from robot_control.ros import conversions
@@ -28,6 +28,7 @@ from robot_control.tools.taps import Tap, spin_for
 
 DEPTH = 10000
 SPIN_ROUND = 0.005    # s, one round of RunControl.spin_until
+STARTUP_WAIT = 10.0   # s for a service of a node already running to be discovered
 COLLECT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
 ROSOUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
@@ -109,7 +110,8 @@ class RunControl:
         self.traj_pub = self.node.create_publisher(JointTrajectory, '/controller/joint_trajectory', REFERENCE_QOS)
         self.wrench_pub = self.node.create_publisher(WrenchStamped, '/controller/wrench_reference', REFERENCE_QOS)
         self.pause_client = self.node.create_client(SetBool, '/sim_bridge/pause')
-        self.bridge_params = None   # rclpy's AsyncParameterClient of /sim_bridge, made when first needed
+        self.param_clients = {}     # node name -> rclpy's AsyncParameterClient, made when first needed
+        self.trigger_clients = {}   # service name -> its std_srvs/Trigger client, made when first needed
         self.log = []    # (logger name, level, text) from /rosout
         self.node.create_subscription(Log, '/rosout', self._on_log, ROSOUT_QOS)
 
@@ -165,16 +167,37 @@ class RunControl:
     def set_bridge_parameters(self, values, timeout=10.0, poll=None):
         """Set run-time parameters of the bridge ({name: value}); RuntimeError naming a refused one."""
         from rclpy.parameter import Parameter
-        if self.bridge_params is None:
-            from rclpy.parameter_client import AsyncParameterClient
-            self.bridge_params = AsyncParameterClient(self.node, 'sim_bridge')
-        self.spin_until(lambda: self.bridge_params.services_are_ready(), timeout, poll,
-                        'the parameter services of /sim_bridge')
-        future = self.bridge_params.set_parameters([Parameter(k, value=v) for k, v in values.items()])
+        client = self._parameter_client('sim_bridge', timeout, poll)
+        future = client.set_parameters([Parameter(k, value=v) for k, v in values.items()])
         self.spin_until(future.done, timeout, poll, '/sim_bridge to set its parameters')
         for name, result in zip(values, future.result().results):
             if not result.successful:
                 raise RuntimeError(f'/sim_bridge refused {name} = {values[name]!r}: {result.reason}')
+
+    def get_parameters(self, node_name, names, timeout=10.0, poll=None):
+        """{name: value} of the parameters `names` of node `node_name` (None for one it has not set)."""
+        from rclpy.parameter import parameter_value_to_python
+        client = self._parameter_client(node_name, timeout, poll)
+        future = client.get_parameters(list(names))
+        self.spin_until(future.done, timeout, poll, f'/{node_name} to give its parameters')
+        return {name: parameter_value_to_python(value) for name, value in zip(names, future.result().values)}
+
+    def _parameter_client(self, node_name, timeout, poll):
+        """The AsyncParameterClient of `node_name`, its services ready."""
+        from rclpy.parameter_client import AsyncParameterClient
+        if node_name not in self.param_clients:
+            self.param_clients[node_name] = AsyncParameterClient(self.node, node_name)
+        client = self.param_clients[node_name]
+        self.spin_until(client.services_are_ready, timeout, poll, f'the parameter services of /{node_name}')
+        return client
+
+    def call_trigger(self, service, poll=None):
+        """Call the std_srvs/Trigger `service` once it is there; the future of its answer."""
+        if service not in self.trigger_clients:
+            self.trigger_clients[service] = self.node.create_client(Trigger, service)
+        client = self.trigger_clients[service]
+        self.spin_until(client.service_is_ready, STARTUP_WAIT, poll, f'the service {service}')
+        return client.call_async(Trigger.Request())
 
     def controller_said(self, text, since=0):
         """Index of the first controller log line after `since` containing `text`, or None."""

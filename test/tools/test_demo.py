@@ -446,7 +446,8 @@ class _FakeLive:
 
     def __init__(self, paused_ns=1_000_000_000 + 503_000_000):
         self.calls = []
-        self.control = self
+        self.control = self.collector = self
+        self.log = []
         self.paused_ns = paused_ns
 
     def pause(self):
@@ -464,6 +465,34 @@ class _FakeLive:
 
     def send_force(self, axes, values, stamp_ns):
         self.calls.append(('force', dict(zip(axes, values)), stamp_ns))
+
+    def call_trigger(self, service, poll=None):
+        self.calls.append(('call', service))
+        self.log.append(('controller', 20, 'started'))
+        return self
+
+    def controller_said(self, text, since=0):
+        return next((i for i, (_, _, m) in enumerate(self.log[since:], since) if text in m), None)
+
+    def spin_until(self, predicate, timeout, poll=None, what=''):
+        self.calls.append(('wait', what))
+        assert predicate()
+
+    def done(self):            # the call's future: answered once the bridge has run on
+        self.answered_ns = self.paused_ns + 12_000_000_000    # the service's work moved the simulation on
+        return self.calls[-1][0] == 'wait' and self.calls[-1][1].endswith('to answer')
+
+    def result(self):
+        return self
+
+    success, message = True, 'done'
+
+    def last_stamp_ns(self):
+        return self.answered_ns
+
+    def get_parameters(self, node_name, names, poll=None):
+        self.calls.append(('get', node_name, tuple(names)))
+        return {name: 1.0 for name in names}
 
     def alive(self):
         pass
@@ -505,6 +534,28 @@ def test_force_references_are_sent_while_the_bridge_stands_before_their_time():
     schedule.send_due(live, 4_000_000_000)
     assert live.calls[2:] == ['pause', 'paused_at', ('force', {'z': 15.0}, 5_000_000_000),
                               ('set', {**push, 'pause_at': -1.0}), 'resume']
+
+
+def test_a_service_call_runs_the_bridge_until_it_answers_then_arms_the_next_change():
+    """A call due at 1 s + 2 s: pause_at disarmed, the call made, the bridge resumed once the controller has logged
+    that it started, the call answered 12 s later, the controller's parameters read, pause_at armed for the parameter change at 1 s + 3 s (past already: made at the
+    next send_due)."""
+    change = {'disturbance.joint_torque': [1.0]}
+    schedule = demo.Schedule(((3.0, change),), 1_000_000_000, lambda *a, **k: None,
+                             calls=((2.0, '/controller/identify_payload', 'started', ('payload.mass',)),))
+    live = _FakeLive(paused_ns=3_000_000_000)
+    schedule.arm(live)
+    assert live.calls == [('set', {'pause_at': 3.0})]
+    schedule.send_due(live, 3_000_000_000)
+    assert live.calls[1:] == ['pause', 'paused_at', ('set', {'pause_at': -1.0}), ('call', '/controller/identify_payload'),
+                              ('wait', 'the controller to start /controller/identify_payload'), 'resume',
+                              ('wait', '/controller/identify_payload to answer'), ('get', 'controller', ('payload.mass',)),
+                              ('set', {'pause_at': 4.0}), 'resume']
+    assert schedule.calls == [{'t': 2.0, 't_called': 2.0, 't_answered': 14.0, 'service': '/controller/identify_payload',
+                               'success': True, 'message': 'done', 'parameters': {'payload.mass': 1.0}}]
+    live.paused_ns = 15_000_000_000
+    schedule.send_due(live, 15_000_000_000)
+    assert schedule.applied == [{'t': 3.0, 't_applied': 14.0, 'parameters': change}]
 
 
 def test_lost_ticks_are_reported_as_time_ranges():

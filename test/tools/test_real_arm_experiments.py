@@ -93,3 +93,32 @@ def test_the_real_arm_runs_have_their_own_table_and_stay_out_of_the_typical_one(
     assert '1.50e-03 rad (j7)' in rows[0] and rows[0].endswith('| 0 |')
     assert '3.60e-04 rad' in rows[1]
     assert 'iiwa_real' not in docs_results.typical_table(summaries)
+
+
+@pytest.mark.parametrize('arm', exps.REAL_ARMS)
+def test_the_identify_experiments_carry_an_unknown_payload_and_call_the_identification_at_rest(arm):
+    for variant in ('identify', 'identify_exact_masses'):
+        exp = exps.get(f'{arm}_real_{variant}')
+        assert exp.bridge['payload.mass'] == 2.0 and not any(k.startswith('payload.') for k in exp.controller)
+        (t, service, started, names), = exp.service_calls
+        assert started == 'identifying the payload'
+        assert service == '/controller/identify_payload' and names == ('payload.mass', 'payload.com')
+        assert exp.trajectory.t_end < t < exp.duration
+    exact = exps.get(f'{arm}_real_identify_exact_masses').bridge
+    assert exact['sim_params.mass_scale'] == [1.0] * 7 and 'sim_params.mass_scale' not in exps.get(f'{arm}_real_identify').bridge
+
+
+def test_identify_figures_compare_the_payload_and_the_hold_before_the_call_and_at_the_end():
+    exp = exps.get('iiwa_real_identify')
+    t = np.arange(0, int(exp.duration * 1000) + 1) * 0.001
+    err = np.zeros((t.size, 7))
+    err[t < 2.7, 1] = 0.02                         # the hold before the call
+    err[t > exp.duration - 1.0, 6] = 0.003         # the end
+    data = _run(t, err, err)
+    data.calls = [{'t': 2.7, 't_called': 2.7, 't_answered': 15.5, 'parameters': {
+        'payload.mass': 2.1, 'payload.com': [0.0, 0.003, 0.054]}}]
+    fig = demo_metrics.identify_figures(data, exp)
+    assert fig == pytest.approx({'payload_mass_kg': 2.1, 'payload_mass_error': 0.05, 'payload_com_error_m': 0.005,
+                                 'hold_error_before_rad': 0.02, 'hold_error_after_rad': 0.003})
+    data.calls[0]['t_answered'] = exp.duration - 0.1   # answered within the end's window: no after figure
+    assert demo_metrics.identify_figures(data, exp)['hold_error_after_rad'] is None
