@@ -223,6 +223,7 @@ def law_cases(count):
     from robot_control.core.config import ControllerConfig
     from robot_control.gains import ServoGains
     from robot_control.laws import computed_torque
+    from robot_control.laws.servo import gain_params as servo_params
     from robot_control.models import for_scenario, make_model
 
     rng = np.random.default_rng(SEED)
@@ -243,10 +244,10 @@ def law_cases(count):
 
     data = iiwa.model.createData()
     rnea = [(iiwa.model, data, q, qd, qdd_d) for q, qd, _, _, qdd_d, _ in states]
-    return {'ct_2dof': law_tick(ControllerConfig(polar, gains=gains2),
+    return {'ct_2dof': law_tick(ControllerConfig(polar, law_params=servo_params(gains2)),
                                 [(q, qd, (q_d, qd_d, qdd_d), None) for _, q, qd, q_d, qd_d, qdd_d, _ in ct2]),
             'ct_2dof_checked': (computed_torque, ct2),
-            'ct_7dof': law_tick(ControllerConfig(iiwa, gains=gains7, integral=True),
+            'ct_7dof': law_tick(ControllerConfig(iiwa, law_params=servo_params(gains7), integral=True),
                                 [(q, qd, (q_d, qd_d, qdd_d), int_E) for _, q, qd, q_d, qd_d, qdd_d, _, int_E in ct7]),
             'ct_7dof_checked': (computed_torque, ct7),
             **hybrid_cases(iiwa, states),
@@ -268,9 +269,11 @@ def hybrid_cases(iiwa, states):
     from robot_control.gains import ServoGains
     from robot_control.laws import hybrid
     from robot_control.laws.force_task import gain_params
+    from robot_control.laws.servo import gain_params as servo_params
     force_gains = ServoGains.uniform(1, KP, KV)
-    config = ControllerConfig(iiwa, law='hybrid', gains=ServoGains.uniform(3, KP, KV),
-                              law_params={'force_axes': ('z',), 'k_e': (K_E,), 'x_e': (X_E,), **gain_params(force_gains)})
+    config = ControllerConfig(iiwa, law='hybrid', law_params={
+        **servo_params(ServoGains.uniform(3, KP, KV)), 'force_axes': ('z',), 'k_e': (K_E,), 'x_e': (X_E,),
+        **gain_params(force_gains)})
     axes = config.control_law.force_task.mask
     posture = config.law_params.posture.gains(iiwa.n)
     tick, inputs = law_tick(config, [(q, qd, (q_d, qd_d, qdd_d, F_D, 0.0, 0.0), None)
@@ -280,7 +283,7 @@ def hybrid_cases(iiwa, states):
         f, fdot = np.zeros(3), np.zeros(3)
         f[axes], fdot[axes] = state.f, state.fdot
         checked.append((iiwa, q, qd, *iiwa._task_motion(q_d, qd_d, qdd_d), np.where(axes, F_D, 0.0), np.zeros(3),
-                        np.zeros(3), f, fdot, axes, K_E, config.gains, force_gains, q_d, posture))
+                        np.zeros(3), f, fdot, axes, K_E, config.control_law.motion_gains, force_gains, q_d, posture))
     return {'hybrid_7dof': (tick, inputs), 'hybrid_7dof_checked': (hybrid, checked)}
 
 

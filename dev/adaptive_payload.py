@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_control import scenarios
+from robot_control.laws.servo import gain_params
 from robot_control.core.config import ControllerConfig
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import ServoGains
@@ -100,8 +101,10 @@ def main(argv=None):
     gradient_errors, gradient_estimates = run_iiwa(ControllerConfig(iiwa, law='adaptive_computed_torque',
                                                                     law_params=GRADIENT_ONLY))
     rms = {'adaptive': rms_per_repetition(errors), 'adaptive, tracking error alone': rms_per_repetition(gradient_errors),
-           'computed torque, payload known': rms_per_repetition(run_iiwa(ControllerConfig(known_model(), gains=GAINS))[0]),
-           'computed torque, payload unknown': rms_per_repetition(run_iiwa(ControllerConfig(iiwa, gains=GAINS))[0])}
+           'computed torque, payload known':
+               rms_per_repetition(run_iiwa(ControllerConfig(known_model(), law_params=gain_params(GAINS)))[0]),
+           'computed torque, payload unknown':
+               rms_per_repetition(run_iiwa(ControllerConfig(iiwa, law_params=gain_params(GAINS)))[0])}
     for name, values in rms.items():
         print(f'{name}: RMS per repetition ' + ', '.join(f'{v:.2e}' for v in values) + ' rad')
     per = int(round(2 * MOVE / DT))

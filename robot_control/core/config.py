@@ -12,7 +12,6 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.core.tolerances import Tolerances
-from robot_control.gains import ServoGains
 from robot_control.laws import law_class
 from robot_control.laws.friction_compensation import FrictionCompensation
 from robot_control.models.base import RobotModel
@@ -25,8 +24,6 @@ class ControllerConfig:
 
     model: RobotModel (the controller's own, closed form or URDF).
     law: a name of the registry robot_control.laws.LAWS.
-    gains: ServoGains of the motion servo: (n,) for the joint laws (1/s^2, 1/s, 1/s^3 for computed
-      torque; torque gains N m/rad ... for independent_joint), (m,) or one per motion axis for hybrid.
     integral: integral action on (ki used) or off (ki ignored, no integral state).
     integral_limit: clamp of |int E| per entry (rad s, m s or N s), > 0, inf = none.
     integral_rest_velocity: v_r, > 0, in units of Ed (rad/s, m/s or N/s): entry i integrates only while
@@ -35,8 +32,9 @@ class ControllerConfig:
     joints: joint names in model order; None = model.joint_names.
     move_time: duration of a set_goal() move, s (> 0).
     law_params: the parameters only the law reads: a mapping of its parameter names (Law.all_param_rows:
-      those of its parts, e.g. force_axes, k_e, x_e, force_kp, ... of the force setup or posture_kp, posture_kv, and
-      its own) to values (missing ones at their defaults; None: all), or the law's Params; held as that
+      those of its parts, e.g. kp, kv, ki of the motion servo, force_axes, k_e, x_e, force_kp, ... of the force
+      setup or posture_kp, posture_kv, and its own) to values (missing ones at their defaults; None: all), or
+      the law's Params; held as that
       law's Params (a frozen dataclass, e.g. robot_control.laws.impedance.ImpedanceParams, its parts fitted
       to the model: the force axes in task-axis order), None for a law without parameters. The law's force
       setup: control_law.force_task (robot_control.laws.force_task.ForceTask).
@@ -53,7 +51,6 @@ class ControllerConfig:
 
     model: RobotModel
     law: str = 'computed_torque'
-    gains: ServoGains = None
     integral: bool = False
     integral_limit: float = math.inf
     integral_rest_velocity: float = math.inf
@@ -128,9 +125,7 @@ class ControllerConfig:
 
     def law_key(self):
         """What the law computes with: a change re-initialises the integral (bumpless transfer)."""
-        def arrays(g):
-            return None if g is None else (tuple(g.kp), tuple(g.kv), tuple(g.ki))
-        return (self.law, self.integral, arrays(self.gains), id(self.model),
+        return (self.law, self.integral, id(self.model),
                 self.integral_limit, self.integral_rest_velocity, self.law_params,
                 self.friction_compensation)
 

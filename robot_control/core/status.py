@@ -118,8 +118,9 @@ def _law(name, core, counters):
     guard = core.contact_guard
     if guard is not None and guard.active:
         level, message = 'ERROR', f'{message}; {guard.reason}'
-    task = cfg.control_law.force_task
-    gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', cfg.gains),
+    law = cfg.control_law
+    task = law.force_task
+    gains = [(f'{label}.{g}', getattr(servo, g).tolist()) for label, servo in (('gains', law.motion_gains),
                                                                                 ('force_gains', task.gains))
              if servo is not None for g in ('kp', 'kv', 'ki')]
     axes = ','.join(task.force_axes)

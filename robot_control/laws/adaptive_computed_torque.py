@@ -279,7 +279,6 @@ class AdaptiveComputedTorque(Law):
     bounds; no kp/kv/ki servo gains and no error integral (the estimate is the law's)."""
 
     name = 'adaptive_computed_torque'
-    motion_servo = False
     param_rows = PARAM_ROWS
     Params = AdaptiveParams
 

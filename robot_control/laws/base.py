@@ -11,14 +11,16 @@ needs, so that nothing else has to know the law by its name:
                     Jdot qd once per tick.
   torque_gains      its designed gains are torques (N m/rad ...), not accelerations: the parameter
                     layer scales the designed kp, kv, ki by the joint inertia M_ii(q0).
-  motion_servo      it has the joint-space motion servo (kp, kv, ki per joint, an integral per joint);
-                    False: no motion-servo gains and, unless integral_dim says otherwise, no integral.
+  motion_servo      it has the motion servo (kp, kv, ki per joint, an integral per joint): it has the
+                    MotionServo among its parts (set from parts, not declared); False: no motion-servo
+                    gains and, unless integral_dim says otherwise, no integral.
   param_rows        the law's own parameters (robot_control.param_table.Row): the controller's parameter
                     table gathers them from the registry; Params: a frozen dataclass with one field per
                     row, checked on creation (ArgumentError naming the field), which the configuration
                     holds as law_params. Parameters every law shares stay in ControllerConfig.
   parts             the parameter groups the law shares with others: classes such as
-                    robot_control.laws.force_task.ForceTask (the force setup) or
+                    robot_control.laws.force_task.ForceTask (the force setup),
+                    robot_control.laws.servo.MotionServo (the motion servo's gains) or
                     robot_control.laws.operational_space.Posture, each a frozen dataclass with its
                     param_rows, one field per row, `field` (the name of the law's Params field that
                     holds it) and fitted(model). The table lists a group's rows once.
@@ -38,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from robot_control.laws.force_task import NO_FORCE_TASK, ForceTask
+from robot_control.laws.servo import MotionServo
 from robot_control.validation import ArgumentError
 
 
@@ -92,7 +95,7 @@ class Law:
     needs_task_space = False
     uses_force = False
     torque_gains = False
-    motion_servo = True
+    motion_servo = False
     param_rows = ()
     Params = None
     parts = ()
@@ -100,6 +103,7 @@ class Law:
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         cls.uses_force = ForceTask in cls.parts
+        cls.motion_servo = MotionServo in cls.parts
 
     @classmethod
     def all_param_rows(cls):
@@ -143,6 +147,12 @@ class Law:
         model's task axes; NO_FORCE_TASK (no force axes) for the others."""
         return self.config.law_params.force_task if self.uses_force else NO_FORCE_TASK
 
+    @property
+    def motion_gains(self):
+        """The motion servo's ServoGains as the configuration gives them (robot_control.laws.servo.MotionServo),
+        None for a law without the motion servo or without gains."""
+        return self.config.law_params.motion_servo.gains if self.motion_servo else None
+
     def __init__(self, config):
         self.config = config
         self.model = config.model
@@ -176,7 +186,8 @@ class Law:
         dim = self.integral_dim
         if not self.config.integral:
             return np.zeros(dim), np.zeros(dim)
-        return np.array(self.config.gains.ki), np.array(self.config.gains.kv)
+        gains = self.motion_gains
+        return np.array(gains.ki), np.array(gains.kv)
 
     def errors(self, state, ref):
         """Errors of this tick (the joint laws: E = q_d - q, Ed = qd_d - qd; arrays of the law, overwritten

@@ -7,7 +7,7 @@ at qdd = v: one RNEA call for a URDF model, the lecture's terms for a closed for
 """
 from robot_control import validation
 from robot_control.laws.base import Law
-from robot_control.laws.servo import _servo, servo_gains
+from robot_control.laws.servo import MotionServo, MotionServoParams, _servo, servo_gains
 
 
 def _computed_torque(model, q, qd, qdd_d, E, Ed, gains, int_E=None):
@@ -31,14 +31,17 @@ class ComputedTorque(Law):
     """The registry's 'computed_torque': the joint reference, Kp, Kv, Ki in 1/s^2, 1/s, 1/s^3."""
 
     name = 'computed_torque'
+    parts = (MotionServo,)
+    Params = MotionServoParams
 
     def __init__(self, config):
         super().__init__(config)
-        self.check_servo_gains('kp', config.gains, self.model.n)
+        self.gains = self.motion_gains
+        self.check_servo_gains('kp', self.gains, self.model.n)
 
     def torque(self, state, ref, err, int_E):
-        return _computed_torque(self.model, state.q, state.qd, ref.qdd_d, err.E, err.Ed, self.config.gains, int_E)
+        return _computed_torque(self.model, state.q, state.qd, ref.qdd_d, err.E, err.Ed, self.gains, int_E)
 
     def integral_map(self, state, ref, err):
         """B = M(q) diag(ki): the integral enters as M Ki int E."""
-        return self.model._M(state.q) * self.config.gains.ki
+        return self.model._M(state.q) * self.gains.ki

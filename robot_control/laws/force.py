@@ -77,7 +77,6 @@ class Force(Law):
     name = 'force'
     tracks = 'task'
     needs_task_space = True
-    motion_servo = False
     parts = (ForceTask,)
     Params = ForceParams
 

@@ -22,7 +22,6 @@ class GravityCompensation(Law):
 
     name = 'gravity_compensation'
     tracks = None
-    motion_servo = False
 
     def torque(self, state, ref, err, int_E):
         return _gravity_compensation(self.model, state.q)

@@ -26,7 +26,7 @@ from robot_control.laws.base import Errors, Law
 from robot_control.laws.force_task import ForceTask
 from robot_control.laws.operational_space import (Posture, _operational_space, _posture_acceleration, _task_inertia,
                                                   check_law_fits, check_task_dimension, posture_gains)
-from robot_control.laws.servo import _servo, servo_gains
+from robot_control.laws.servo import MotionServo, _servo, servo_gains
 from robot_control.validation import ArgumentError
 
 
@@ -139,10 +139,11 @@ def hybrid(model, q, qd, x_d, xd_d, xdd_d, f_d, fd_d, fdd_d, f, fdot, force_axes
 
 @dataclasses.dataclass(frozen=True)
 class HybridParams:
-    """The hybrid law's parameters: its force setup with the force servo's gains
-    (robot_control.laws.force_task.ForceTask) and its null-space posture
+    """The hybrid law's parameters: its motion servo's gains (robot_control.laws.servo.MotionServo), its force
+    setup with the force servo's gains (robot_control.laws.force_task.ForceTask) and its null-space posture
     (robot_control.laws.operational_space.Posture)."""
 
+    motion_servo: MotionServo = MotionServo()
     force_task: ForceTask = ForceTask()
     posture: Posture = Posture()
 
@@ -154,7 +155,7 @@ class Hybrid(Law):
     name = 'hybrid'
     tracks = 'task'
     needs_task_space = True
-    parts = (ForceTask, Posture)
+    parts = (MotionServo, ForceTask, Posture)
     Params = HybridParams
 
     def __init__(self, config):
@@ -167,11 +168,11 @@ class Hybrid(Law):
         self._zeros = np.zeros(m)
         self._zeros.flags.writeable = False
         self._no_force = (self._zeros[:0],) * 5                 # f, fdot, f_d, fd_d, fdd_d without force axes
-        motion = m - k
-        if motion and getattr(config.gains, 'n', None) not in (m, motion):
+        motion, gains = m - k, self.motion_gains
+        if motion and getattr(gains, 'n', None) not in (m, motion):
             raise ArgumentError('kp', f'expected {m} gains (one per task axis) or {motion} (one per motion axis) '
-                                      f'for law hybrid, got {getattr(config.gains, "n", config.gains)}')
-        self.gains = axis_gains(config.gains if motion else None, task.gains, self.axes)
+                                      f'for law hybrid, got {getattr(gains, "n", gains)}')
+        self.gains = axis_gains(gains if motion else None, task.gains, self.axes)
         K_e = np.ones(m)
         K_e[self.axes] = task.k_e
         self.K_e = K_e

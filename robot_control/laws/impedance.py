@@ -233,7 +233,6 @@ class Impedance(Law):
     name = 'impedance'
     tracks = 'task'
     needs_task_space = True
-    motion_servo = False
     param_rows = PARAM_ROWS
     Params = ImpedanceParams
     parts = (Posture,)

@@ -7,7 +7,7 @@ import numpy as np
 
 from robot_control import validation
 from robot_control.laws.base import Law
-from robot_control.laws.servo import servo_gains
+from robot_control.laws.servo import MotionServo, MotionServoParams, servo_gains
 
 
 def _independent_joint(E, Ed, gains, int_E=None):
@@ -34,15 +34,18 @@ class IndependentJoint(Law):
     """The registry's 'independent_joint': the joint reference, torque gains, no model."""
 
     name = 'independent_joint'
+    parts = (MotionServo,)
+    Params = MotionServoParams
     torque_gains = True
 
     def __init__(self, config):
         super().__init__(config)
-        self.check_servo_gains('kp', config.gains, self.model.n)
+        self.gains = self.motion_gains
+        self.check_servo_gains('kp', self.gains, self.model.n)
 
     def torque(self, state, ref, err, int_E):
-        return _independent_joint(err.E, err.Ed, self.config.gains, int_E)
+        return _independent_joint(err.E, err.Ed, self.gains, int_E)
 
     def integral_map(self, state, ref, err):
         """B = diag(ki)."""
-        return np.diag(self.config.gains.ki)
+        return np.diag(self.gains.ki)

@@ -128,7 +128,6 @@ class JointImpedance(Law):
     integral per joint when integral is on (ki = joint_ki), no kp/kv/ki servo gains."""
 
     name = 'joint_impedance'
-    motion_servo = False
     param_rows = PARAM_ROWS
     Params = JointImpedanceParams
 

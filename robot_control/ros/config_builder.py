@@ -3,7 +3,7 @@
 ConfigBuilder()(values) builds the model (closed form or URDF; the latest one is kept, so a
 change of gains does not rebuild a URDF model), sizes the servo gains the law needs (each of
 kp, kv, ki explicit or designed from zeta, omega_res, omega_n by robot_control.gains; the force
-servo's force_kp, force_kv, force_ki likewise, written into the law's parameters) and makes
+servo's force_kp, force_kv, force_ki likewise; both written into the law's parameters) and makes
 the ControllerConfig. The law (robot_control.laws.LAWS) says how its motion servo is sized.
 
 Errors are ArgumentErrors named after a parameter, or after a config field or model argument
@@ -16,6 +16,7 @@ from robot_control import scenarios
 from robot_control.core.config import ControllerConfig
 from robot_control.gains import ServoGains
 from robot_control.laws import force_task, friction_compensation, law_class
+from robot_control.laws.servo import gain_params as motion_params
 from robot_control.models import make_model
 from robot_control.models.base import POSE_JOINTS
 from robot_control.param_table import ParameterError
@@ -106,10 +107,11 @@ class ConfigBuilder:
         q0 = scenarios.get(scenario).q0 if scenario else None
         motion = motion_gains(values, model, design, q0)
         law_params = {row.name: values[row.name] for row in law.all_param_rows()}
+        law_params.update(motion_params(motion))
         if law.uses_force:
             law_params.update(force_task.gain_params(servo_gains(values, 'force_', len(values['force_axes']), design)))
         config = ControllerConfig(
-            model=model, law=values['law'], gains=motion, integral=values['integral'],
+            model=model, law=values['law'], integral=values['integral'],
             integral_limit=values['integral_limit'], integral_rest_velocity=values['integral_rest_velocity'],
             effort_limit=values['effort_limits'] or None,
             joints=values['joints'] or None, move_time=values['move_time'],

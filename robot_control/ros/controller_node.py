@@ -176,7 +176,7 @@ class ControllerNode(ParameterNode, LifecycleNode):
         self.get_logger().info(
             f'ready: law {cfg.law}{" (PID)" if cfg.integral else ""}, model {snapshot.values["model"]}, '
             f'joints {list(cfg.joints)}, force axes {list(cfg.control_law.force_task.force_axes)}, '
-            f'kp {cfg.gains.kp.tolist() if cfg.gains is not None else []}')
+            f'kp {list(params.gains_in_force(cfg)["gains.kp"])}')
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state):

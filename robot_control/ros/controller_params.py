@@ -145,9 +145,8 @@ def payload_id_rows():
 
 
 def servo_rows():
-    """The law and its motion servo's gains: designed from zeta, omega_res, omega_n (the force servo's too), or
-    explicit; limits."""
-    gains = [custom('empty, or one per joint (hybrid: per task or motion axis)'), gt_eq(0)]
+    """The law and the design of the servo gains from zeta, omega_res, omega_n (the motion servo's kp, kv, ki
+    and the force servo's, when not explicit); the integral; limits."""
     return [
         Row('law', 'string', 'computed_torque', 'control law', [one_of(LAWS)]),
         Row('integral', 'bool', False, 'integral action (PID): ki used, integral state kept'),
@@ -160,12 +159,6 @@ def servo_rows():
             [gt_eq(0), custom('<= 0.5 omega_res unless allow_resonance')]),
         Row('allow_resonance', 'bool', False, 'allow a designed omega_n > 0.5 omega_res (a servo fast enough '
             'to excite the structural resonance)'),
-        Row('kp', 'double_array', (), 'explicit Kp diagonal (empty = designed): 1/s^2 (computed torque, hybrid '
-            'motion axes) or N m/rad, N/m (independent_joint)', gains),
-        Row('kv', 'double_array', (), 'explicit Kv diagonal (empty = designed): 1/s or N m s/rad, N s/m',
-            [custom('empty, or as many as kp needs'), gt_eq(0)]),
-        Row('ki', 'double_array', (), 'explicit Ki diagonal (empty = designed), used when integral: '
-            '1/s^3 or N m/(rad s), N/(m s)', [custom('empty, or as many as kp needs'), gt_eq(0)]),
         Row('integral_limit', 'double', math.inf,
             'clamp of |integral of the error| per entry: rad s, m s (joints/motion) or N s (force); .inf = no clamp',
             [gt(0)], inf=True),
@@ -259,7 +252,8 @@ def gains_rows():
 def gains_in_force(config):
     """{gains.*: tuple} of a ControllerConfig, for the reported rows."""
     out = {}
-    for prefix, gains in (('gains.', config.gains), ('gains.force_', config.control_law.force_task.gains)):
+    law = config.control_law
+    for prefix, gains in (('gains.', law.motion_gains), ('gains.force_', law.force_task.gains)):
         for gain, _ in GAINS:
             out[f'{prefix}{gain}'] = () if gains is None else tuple(getattr(gains, gain).tolist())
     return out

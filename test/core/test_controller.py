@@ -8,6 +8,7 @@ from robot_control.core.controller import Command, Controller, Rejection
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
 from robot_control.laws.force_task import gain_params
+from robot_control.laws.servo import gain_params as servo_params
 from robot_control.models import make_model
 
 MS = 1_000_000
@@ -16,18 +17,16 @@ XY = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
 
 
 def polar():
-    return ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2), effort_limit=[200.0, 200.0])
+    return ControllerConfig(POLAR, law_params=servo_params(design(1.0, 12.0).gains(2)), effort_limit=[200.0, 200.0])
 
 
-#: x against a spring at 0.3 m, the force from the sensor
+#: the hybrid law's parameters: x against a spring at 0.3 m, the force from the sensor
 FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'sensor',
-         **gain_params(design(1.0, 12.0).gains(1))}
+         **gain_params(design(1.0, 12.0).gains(1)), **servo_params(design(1.0, 12.0).gains(2))}
 
 
 def hybrid_sensor():
-    d = design(1.0, 12.0)
-    return ControllerConfig(XY, law='hybrid', gains=d.gains(2), law_params=FORCE,
-                            effort_limit=[200.0, 200.0])
+    return ControllerConfig(XY, law='hybrid', law_params=FORCE, effort_limit=[200.0, 200.0])
 
 
 def test_a_state_by_name_gets_the_core_torque_on_the_stamp_time_line():

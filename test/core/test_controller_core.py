@@ -12,6 +12,7 @@ from robot_control.gains import ServoGains, design
 from robot_control.laws import (LAWS, Reference, State, computed_torque, force_1dof, hybrid, independent_joint,
                                 saturate, spring_force)
 from robot_control.laws.force_task import gain_params
+from robot_control.laws.servo import gain_params as servo_params
 from robot_control.models import make_model
 from robot_control.trajectory import from_points, hold, point_to_point
 
@@ -21,15 +22,17 @@ POLAR = make_model('polar_two_link', m=2.0, gravity=9.8)
 LIMIT = np.array([200.0, 200.0])
 
 
-def polar_config(integral=False, law='computed_torque', gains=None, **kw):
+def polar_config(integral=False, law='computed_torque', gains=None, law_params=None, **kw):
+    """The polar arm's configuration; `gains` (default: designed) go to a law with the motion servo."""
     g = gains if gains is not None else design(1.0, 12.0, integral=integral).gains(2)
     kw.setdefault('effort_limit', LIMIT)
-    return ControllerConfig(POLAR, law=law, gains=g, integral=integral, **kw)
+    params = {**(servo_params(g) if law not in LAWS or LAWS[law].motion_servo else {}), **(law_params or {})}
+    return ControllerConfig(POLAR, law=law, law_params=params, integral=integral, **kw)
 
 
-#: the force setup of the cartesian_xy cases: x against a spring at 0.3 m, the force from the model
+#: the hybrid law's parameters in the cartesian_xy cases: x against a spring at 0.3 m, the force from the model
 XY_FORCE = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': 'model',
-            **gain_params(design(1.0, 12.0).gains(1))}
+            **gain_params(design(1.0, 12.0).gains(1)), **servo_params(design(1.0, 12.0).gains(2))}
 
 
 def xy_config(integral=False, feedback='model', **kw):
@@ -38,7 +41,8 @@ def xy_config(integral=False, feedback='model', **kw):
     kw.setdefault('effort_limit', [200.0, 200.0])
     force = {'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3], 'force_feedback': feedback,
              **gain_params(d.gains(1)), **kw.pop('force', {})}
-    return ControllerConfig(model, law='hybrid', gains=d.gains(2), integral=integral, law_params=force, **kw)
+    return ControllerConfig(model, law='hybrid', integral=integral,
+                            law_params={**servo_params(d.gains(2)), **force}, **kw)
 
 
 def force_config(integral=False, feedback='model', **kw):
@@ -59,8 +63,8 @@ def random_state(n, scale=0.2, base=None):
 def test_lecture_polar_example_torque_at_a_hold():
     """m = 2, w_res = 12: kp = 36, kv = 12; tau = [2r^2 v1 + 4 r rd th1d + 19.6 r c1, 2 v2 - 2 r th1d^2 + 19.6 s1]."""
     cfg = polar_config()
-    np.testing.assert_array_equal(cfg.gains.kp, [36.0, 36.0])
-    np.testing.assert_array_equal(cfg.gains.kv, [12.0, 12.0])
+    np.testing.assert_array_equal(cfg.control_law.motion_gains.kp, [36.0, 36.0])
+    np.testing.assert_array_equal(cfg.control_law.motion_gains.kv, [12.0, 12.0])
     core = ControllerCore(cfg)
     q, qd = np.array([0.4, 0.8]), np.array([0.3, -0.2])
     core.update(0.0, q, np.zeros(2))           # starts: reference holds q
@@ -79,9 +83,9 @@ def _library_tau(core, q, qd, f_meas=None):
     pos, vel, acc = core.reference
     int_E = core.integral_value.copy() if cfg.integral else None
     if cfg.law == 'computed_torque':
-        tau = computed_torque(cfg.model, q, qd, pos, vel, acc, cfg.gains, int_E)
+        tau = computed_torque(cfg.model, q, qd, pos, vel, acc, cfg.control_law.motion_gains, int_E)
     elif cfg.law == 'independent_joint':
-        tau = independent_joint(q, qd, pos, vel, cfg.gains, int_E)
+        tau = independent_joint(q, qd, pos, vel, cfg.control_law.motion_gains, int_E)
     else:
         model = cfg.model
         x, xd = model.fk(q), model.J(q) @ qd
@@ -97,7 +101,7 @@ def _library_tau(core, q, qd, f_meas=None):
             fm, fdm = np.zeros(model.task_dim), np.zeros(model.task_dim)
             fm[mask], fdm[mask] = f, fdot
             tau = hybrid(model, q, qd, pos, vel, acc, pos, vel, acc, fm, fdm, mask, np.where(mask, 1000.0, 1.0),
-                         cfg.gains, task.gains, q_posture=core.joint_reference[0],
+                         cfg.control_law.motion_gains, task.gains, q_posture=core.joint_reference[0],
                          k_posture=cfg.law_params.posture.gains(model.n), int_E=int_E)
     return saturate(tau, cfg.effort_limit)[0]
 
@@ -204,8 +208,8 @@ def test_stop_then_update_restarts_with_reset_integral_and_hold_of_the_new_state
     assert core.active and core.restarts == 1
     np.testing.assert_array_equal(core.joint_reference[0], q_new)
     np.testing.assert_array_equal(core.integral_value, [0.0, 0.0])
-    expected = computed_torque(POLAR, q_new, qd_new, q_new, np.zeros(2), np.zeros(2), core.config.gains,
-                               np.zeros(2))
+    expected = computed_torque(POLAR, q_new, qd_new, q_new, np.zeros(2), np.zeros(2),
+                               core.config.control_law.motion_gains, np.zeros(2))
     np.testing.assert_allclose(tau, expected, rtol=0, atol=1e-12)
 
 
@@ -402,7 +406,7 @@ def test_gain_change_with_integral_is_bumpless():
     core, q, t = _tracking_core(polar_config(integral=True))
     tau_before = core.tau.copy()
     g = design(1.0, omega_n=4.0, integral=True).gains(2)
-    core.configure(core.config.replace(gains=g))
+    core.configure(core.config.replace(law_params=servo_params(g)))
     tau_after = core.update(t, q, np.zeros(2))
     np.testing.assert_allclose(tau_after, tau_before, rtol=0, atol=1e-9)
     np.testing.assert_allclose(tau_after, _library_tau(core, q, np.zeros(2)), rtol=0, atol=1e-12)
@@ -415,7 +419,7 @@ def test_switch_computed_torque_to_independent_joint_with_integral_is_bumpless()
     tau_before = core.tau.copy()
     ref_before = [a.copy() for a in core.joint_reference]
     gains = ServoGains([50.0, 80.0], [10.0, 20.0], [30.0, 40.0])
-    core.configure(core.config.replace(law='independent_joint', gains=gains))
+    core.configure(core.config.replace(law='independent_joint', law_params=servo_params(gains)))
     tau_after = core.update(t, q, np.zeros(2))
     np.testing.assert_allclose(tau_after, tau_before, rtol=0, atol=1e-9)
     for got, want in zip(core.joint_reference, ref_before):    # reference kept
@@ -426,7 +430,7 @@ def test_switch_computed_torque_to_independent_joint_with_integral_is_bumpless()
 def test_switch_to_a_law_without_integral_gives_exactly_the_new_law():
     core, q, t = _tracking_core(polar_config(integral=True))
     gains = ServoGains([50.0, 80.0], [10.0, 20.0], [0.0, 0.0])
-    core.configure(core.config.replace(law='independent_joint', gains=gains, integral=False))
+    core.configure(core.config.replace(law='independent_joint', law_params=servo_params(gains), integral=False))
     tau = core.update(t, q, np.zeros(2))
     pos, vel, _ = core.joint_reference
     np.testing.assert_allclose(tau, independent_joint(q, np.zeros(2), pos, vel, gains), rtol=0, atol=1e-12)
@@ -435,7 +439,7 @@ def test_switch_to_a_law_without_integral_gives_exactly_the_new_law():
 def test_switch_to_hybrid_restarts_the_reference_from_the_current_state():
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
     d = design(1.0, 12.0)
-    core = ControllerCore(ControllerConfig(model, gains=d.gains(2), effort_limit=[200.0, 200.0]))
+    core = ControllerCore(ControllerConfig(model, law_params=servo_params(d.gains(2)), effort_limit=[200.0, 200.0]))
     core.update(0.0, np.array([0.25, 0.0]), np.zeros(2))
     core.set_goal([0.25, 0.3], duration=0.5)
     for k in range(1, 200):
@@ -460,7 +464,8 @@ def test_configure_cannot_change_joints():
 def test_singular_jacobian_falls_back_to_gravity_hold():
     model = make_model('planar_two_link')
     d = design(1.0, 12.0)
-    core = ControllerCore(ControllerConfig(model, law='hybrid', gains=d.gains(2), effort_limit=[5.0, 5.0]))
+    core = ControllerCore(ControllerConfig(model, law='hybrid', law_params=servo_params(d.gains(2)),
+                                           effort_limit=[5.0, 5.0]))
     q = np.array([0.3, 0.0])                     # arm stretched: J singular
     tau = core.update(0.0, q, np.zeros(2))
     np.testing.assert_allclose(tau, saturate(model.g(q), 5.0)[0], rtol=0, atol=1e-12)
@@ -499,18 +504,23 @@ def test_the_configuration_holds_only_what_every_law_shares():
     """What one law (or a group of laws: the force setup, the posture) reads is in its Params (law_params), not in
     ControllerConfig: no field of the configuration is a parameter of a law."""
     fields = {f.name for f in dataclasses.fields(ControllerConfig)}
-    assert fields == {'model', 'law', 'gains', 'integral', 'integral_limit', 'integral_rest_velocity',
+    assert fields == {'model', 'law', 'integral', 'integral_limit', 'integral_rest_velocity',
                       'effort_limit', 'joints', 'move_time', 'trajectory_tolerance', 'goal_tolerance',
                       'goal_time', 'stopped_velocity_tolerance', 'law_params', 'friction_compensation',
                       'velocity_cutoff_hz'}
     law_rows = {row.name for law in LAWS.values() for row in law.all_param_rows()}
-    assert {'force_axes', 'k_e', 'x_e', 'force_kp', 'posture_kp', 'contact_max_travel', 'control_period'} <= law_rows
+    assert {'kp', 'kv', 'ki', 'force_axes', 'k_e', 'x_e', 'force_kp', 'posture_kp', 'contact_max_travel',
+            'control_period'} <= law_rows
     assert not fields & law_rows
     assert [name for name, law in LAWS.items() if law.uses_force] == ['force', 'hybrid']
+    assert [name for name, law in LAWS.items() if law.motion_servo] == ['computed_torque', 'independent_joint',
+                                                                         'hybrid']
 
 
 @pytest.mark.parametrize('changes, match', [
     ({'law': 'pid'}, '^law: unknown'),
+    ({'law_params': {'kp': [1.0, -1.0], 'kv': [1.0, 1.0]}}, '^kp: expected non-negative'),
+    ({'law_params': {'kp': [1.0, 1.0], 'kv': [1.0]}}, '^kv:'),
     ({'gains': ServoGains.uniform(3, 1.0, 1.0)}, '^kp: expected 2 gains'),
     ({'effort_limit': [1.0, -1.0]}, '^effort_limits:'),
     ({'effort_limit': [1.0]}, '^effort_limits:'),
@@ -539,13 +549,14 @@ def test_operational_space_laws_need_task_dimension_at_most_the_joints():
     """single_link: 1 joint, 2 task axes (x, y); hybrid and impedance refuse it naming law and the sizes."""
     with pytest.raises(ValueError, match=r'^law: hybrid needs task dimension <= joints; the model has 2 task axes '
                                          r"\['x', 'y'\] and 1 joints"):
-        ControllerConfig(make_model('single_link'), law='hybrid', gains=ServoGains.uniform(2, 1.0, 1.0))
+        ControllerConfig(make_model('single_link'), law='hybrid',
+                         law_params=servo_params(ServoGains.uniform(2, 1.0, 1.0)))
     with pytest.raises(ValueError, match='^law: impedance needs task dimension <= joints; the model has 2 task axes'):
         ControllerConfig(make_model('single_link'), law='impedance', law_params={'cartesian_stiffness': [100.0] * 6})
 
 
 def test_effort_limit_defaults_to_the_model():
-    assert np.all(np.isinf(ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2)).effort_limit))
+    assert np.all(np.isinf(ControllerConfig(POLAR, law_params=servo_params(design(1.0, 12.0).gains(2))).effort_limit))
 
 
 def test_hold_is_the_trajectory_module_hold():
@@ -688,7 +699,7 @@ def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
     np.testing.assert_allclose(core.reference_at(1.0)[0], [0.5, 0.9])
     np.testing.assert_array_less(q0, core.reference_at(0.5)[0])
     xy = xy_config()
-    core = ControllerCore(xy.replace(law='gravity_compensation', gains=None, law_params=None))
+    core = ControllerCore(xy.replace(law='gravity_compensation', law_params=None))
     core.update(0.0, np.array([0.3, 0.1]), np.zeros(2))
     core.configure(ControllerConfig(xy.model, law='impedance', effort_limit=[200.0, 200.0]))
     core.set_target_pose([0.32, 0.12])
@@ -696,7 +707,7 @@ def test_a_reference_given_between_a_law_switch_and_the_next_tick_is_kept():
     np.testing.assert_array_equal(core.reference[0], [0.32, 0.12])
     # a law that uses force: its force reference still ramps from the force measured at the restart
     d = design(1.0, 12.0)
-    ct = ControllerConfig(xy.model, gains=d.gains(2), effort_limit=[200.0, 200.0])
+    ct = ControllerConfig(xy.model, law_params=servo_params(d.gains(2)), effort_limit=[200.0, 200.0])
     core = ControllerCore(ct)
     q = np.array([0.301, 0.05])
     core.update(0.0, q, np.zeros(2))

@@ -15,6 +15,8 @@ from robot_control.core.watchdog import StateWatchdog
 from robot_control.gains import ServoGains, design
 from robot_control.laws import LAWS, Law, gravity_compensation
 from robot_control.laws.force_task import gain_params
+from robot_control.laws.servo import MotionServo, MotionServoParams
+from robot_control.laws.servo import gain_params as servo_params
 from robot_control.models import make_model
 from robot_control.validation import ArgumentError
 
@@ -52,11 +54,11 @@ def test_gravity_compensation_is_g_of_q_every_tick_and_the_arm_floats():
 
 def test_switching_to_gravity_compensation_and_back_restarts_the_reference_from_where_the_arm_is():
     d = design(1.0, 12.0)
-    core = ControllerCore(ControllerConfig(POLAR, gains=d.gains(2)))
+    core = ControllerCore(ControllerConfig(POLAR, law_params=servo_params(d.gains(2))))
     core.update(0.0, np.array([0.2, 0.6]), np.zeros(2))
-    core.configure(core.config.replace(law='gravity_compensation'))
+    core.configure(core.config.replace(law='gravity_compensation', law_params=None))
     core.update(0.001, np.array([0.3, 0.7]), np.zeros(2))        # the arm was moved by hand
-    core.configure(core.config.replace(law='computed_torque'))
+    core.configure(core.config.replace(law='computed_torque', law_params=servo_params(d.gains(2))))
     core.update(0.002, np.array([0.5, 0.9]), np.zeros(2))
     np.testing.assert_array_equal(core.joint_reference[0], [0.5, 0.9])   # holds where it is, no pull back
 
@@ -66,18 +68,21 @@ class _Damping(Law):
 
     name = 'damping'
     tracks = None
+    parts = (MotionServo,)
+    Params = MotionServoParams
 
     @property
     def integral_dim(self):
         return 0
 
     def torque(self, state, ref, err, int_E):
-        return self.model._g(state.q) - self.config.gains.kv * state.qd
+        return self.model._g(state.q) - self.motion_gains.kv * state.qd
 
 
 def test_a_law_is_one_class_and_one_registry_entry(monkeypatch):
     monkeypatch.setitem(LAWS, 'damping', _Damping)
-    core = ControllerCore(ControllerConfig(POLAR, law='damping', gains=ServoGains.uniform(2, 0.0, 3.0)))
+    core = ControllerCore(ControllerConfig(POLAR, law='damping',
+                                           law_params=servo_params(ServoGains.uniform(2, 0.0, 3.0))))
     q, qd = np.array([0.1, 0.5]), np.array([1.0, -2.0])
     np.testing.assert_allclose(core.update(0.0, q, qd), POLAR.g(q) - 3.0 * qd, rtol=0, atol=1e-12)
 
@@ -151,7 +156,8 @@ def test_a_new_state_releases_a_held_one_first():
 
 # -- diagnostics content --------------------------------------------------------------------------------------
 def test_the_statuses_report_watchdog_saturation_rejections_and_the_law():
-    core = ControllerCore(ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2), effort_limit=[5.0, 50.0]))
+    core = ControllerCore(ControllerConfig(POLAR, law_params=servo_params(design(1.0, 12.0).gains(2)),
+                                           effort_limit=[5.0, 50.0]))
     core.update(0.0, np.array([0.0, 0.5]), np.zeros(2))          # gravity 9.8 N m > 5: saturates
     dog, counters = StateWatchdog(0.5), Counters(('joint_states',))
     counters.reject('joint_states', 'position: not finite')
@@ -177,10 +183,10 @@ def test_the_law_status_names_the_force_axes():
     """A bag reader tells the force axes from the motion axes of ~/reference by this key."""
     d = design(1.0, 12.0)
     hybrid = ControllerCore(ControllerConfig(make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81), law='hybrid',
-                                             gains=d.gains(2),
-                                             law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3],
+                                             law_params={**servo_params(d.gains(2)), 'force_axes': ('x',), 'k_e': [1000.0],
+                                                         'x_e': [0.3],
                                                          'force_feedback': 'model', **gain_params(d.gains(1))}))
-    joint = ControllerCore(ControllerConfig(POLAR, gains=d.gains(2)))
+    joint = ControllerCore(ControllerConfig(POLAR, law_params=servo_params(d.gains(2))))
     for core, axes in ((hybrid, 'x'), (joint, '')):
         law = controller_statuses('controller', core, StateWatchdog(0.5), None, Counters(('joint_states',)))[3]
         assert dict(law[3])['force_axes'] == axes

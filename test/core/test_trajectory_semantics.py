@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from robot_control.core.config import ControllerConfig
+from robot_control.laws.servo import gain_params
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
 from robot_control.models import for_scenario, make_model
@@ -14,7 +15,7 @@ DT = 0.001
 
 
 def polar_core(**kw):
-    return ControllerCore(ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2), **kw))
+    return ControllerCore(ControllerConfig(POLAR, law_params=gain_params(design(1.0, 12.0).gains(2)), **kw))
 
 
 def run(core, q, t0, t1, qd=None):
@@ -63,7 +64,7 @@ def test_a_partial_goal_holds_the_joints_it_leaves_out():
 
 def test_a_trajectory_beyond_the_urdf_limits_is_refused_naming_joint_point_and_limit():
     iiwa = for_scenario('iiwa')
-    core = ControllerCore(ControllerConfig(iiwa, gains=design(1.0, 12.0).gains(7)))
+    core = ControllerCore(ControllerConfig(iiwa, law_params=gain_params(design(1.0, 12.0).gains(7))))
     q0 = np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0])
     core.update(0.0, q0, np.zeros(7))
     lower, upper = iiwa.position_limits

@@ -37,6 +37,7 @@ from robot_control.core.tick import ControllerConfig, ControllerCore
 from robot_control.gains import ServoGains, design
 from robot_control.laws import Integral, computed_torque, hybrid, saturate
 from robot_control.laws.force_task import gain_params
+from robot_control.laws.servo import gain_params as servo_params
 from robot_control.models import for_scenario, make_model
 from robot_control.core.contact import ContactGuard
 
@@ -118,7 +119,7 @@ def _polar_step(core, model, q0, goal, move, T=2.0, dt=1e-3):
 
 
 def _core(model, law, gains, limit, move, integral=True):
-    return ControllerCore(ControllerConfig(model=model, law=law, gains=gains, integral=integral,
+    return ControllerCore(ControllerConfig(model=model, law=law, law_params=servo_params(gains), integral=integral,
                                            effort_limit=None if limit is None else list(limit), move_time=move))
 
 
@@ -198,7 +199,7 @@ def test_the_overshoot_criterion_detects_integral_windup():
     core = _core(POLAR_MODEL, 'computed_torque', gains, (1e9, 1e9), move)
     free, _ = _polar_step(core, POLAR_MODEL, q0, goal, move)
     # the same law, integral without hold or back-calculation
-    ref = ControllerCore(ControllerConfig(model=POLAR_MODEL, gains=gains, move_time=move))
+    ref = ControllerCore(ControllerConfig(model=POLAR_MODEL, law_params=servo_params(gains), move_time=move))
     q, qd, integral = q0.copy(), np.zeros(2), Integral(2)
     ref.update(0.0, q, qd)
     ref.set_goal(goal, move)
@@ -225,10 +226,9 @@ def test_hybrid_and_force_laws_saturate_and_recover():
     model = make_model('cartesian_xy', m1=1.0, m2=1.0, gravity=9.81)
 
     def run_hybrid(limit):
-        cfg = ControllerConfig(model=model, law='hybrid', gains=PID.gains(2), integral=True,
-                               effort_limit=list(limit), move_time=0.05,
-                               law_params={'force_axes': ('x',), 'k_e': [1000.0], 'x_e': [0.3],
-                                           'force_feedback': 'sensor', 'force_ramp_time': 0.2,
+        cfg = ControllerConfig(model=model, law='hybrid', integral=True, effort_limit=list(limit), move_time=0.05,
+                               law_params={**servo_params(PID.gains(2)), 'force_axes': ('x',), 'k_e': [1000.0],
+                                           'x_e': [0.3], 'force_feedback': 'sensor', 'force_ramp_time': 0.2,
                                            **gain_params(PID.gains(1))})
         core = ControllerCore(cfg)
         q, qd = np.array([0.305, 0.0]), np.zeros(2)

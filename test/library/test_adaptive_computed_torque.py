@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from robot_control.core.config import ControllerConfig
+from robot_control.laws.servo import gain_params
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import ServoGains
 from robot_control.laws import Reference, State, adaptive_computed_torque, computed_torque
@@ -146,10 +147,10 @@ def test_the_third_repetition_tracks_within_2x_of_computed_torque_with_the_paylo
     adaptation_gain 5, 1, 0.01; with the default gain the wrist's inertia estimate swings)."""
     errors, _ = adaptive_run
     adaptive = rms_per_repetition(errors)
-    ct_known = rms_per_repetition(run_iiwa(ControllerConfig(known, gains=GAINS))[0])
+    ct_known = rms_per_repetition(run_iiwa(ControllerConfig(known, law_params=gain_params(GAINS)))[0])
     assert adaptive[2] <= 2 * ct_known[2], (adaptive, ct_known)
     assert adaptive[2] < adaptive[1] < adaptive[0] / 10, adaptive
-    ct_unknown = rms_per_repetition(run_iiwa(ControllerConfig(iiwa, gains=GAINS), repetitions=1)[0])
+    ct_unknown = rms_per_repetition(run_iiwa(ControllerConfig(iiwa, law_params=gain_params(GAINS)), repetitions=1)[0])
     assert adaptive[2] < ct_unknown[0] / 100, (adaptive, ct_unknown)
     for gain in ((5.0, 1.0, 0.01), (5.0, 5.0, 1.0)):
         gradient = ControllerConfig(iiwa, law='adaptive_computed_torque', law_params={
@@ -221,7 +222,7 @@ def test_the_law_s_rows_are_in_the_controller_table_and_reach_the_law_through_th
                                                   'adaptation_gain': [2.0], 'adaptive_lambda': 9.0,
                                                   'adaptive_kd': [4.0], 'adaptive_mass_max': 3.0}))
     law = cfg.control_law
-    assert cfg.gains is None and law.name == 'adaptive_computed_torque' and cfg.integral_dim == 0
+    assert cfg.control_law.motion_gains is None and law.name == 'adaptive_computed_torque' and cfg.integral_dim == 0
     assert law.lam == 9.0 and law.mass_max == 3.0
     np.testing.assert_array_equal(law.gamma, np.full(10, 2.0))
     np.testing.assert_array_equal(law.kd, np.full(7, 4.0))

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from robot_control.core.config import ControllerConfig
+from robot_control.laws.servo import gain_params
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
 from robot_control.laws.friction_compensation import PREFIX, FrictionCompensation, friction_compensation
@@ -56,7 +57,7 @@ def test_argument_errors_name_the_argument(kwargs, name):
 
 def test_the_configuration_holds_it_or_none_when_off():
     def held(value):
-        return ControllerConfig(POLAR, gains=GAINS, friction_compensation=value).friction_compensation
+        return ControllerConfig(POLAR, law_params=gain_params(GAINS), friction_compensation=value).friction_compensation
     assert held(None) is None and held({'coulomb': [0.0], 'viscous': ()}) is None
     comp = held({'coulomb': [1.5], 'velocity': 'measured'})
     assert comp == FrictionCompensation((1.5, 1.5), (0.0, 0.0), 0.01, 'measured')
@@ -66,7 +67,7 @@ def test_the_configuration_holds_it_or_none_when_off():
                         ({'coulomb': [1.0], 'velocity': 'estimated'}, 'friction_compensation.velocity'),
                         ({'stiction': [1.0]}, 'friction_compensation'), ([1.0], 'friction_compensation')):
         with pytest.raises(ArgumentError) as err:
-            ControllerConfig(POLAR, gains=GAINS, friction_compensation=value)
+            ControllerConfig(POLAR, law_params=gain_params(GAINS), friction_compensation=value)
         assert err.value.name == name, err.value
 
 
@@ -75,7 +76,7 @@ def test_the_tick_adds_tau_f_to_the_law_s_torque_before_saturation(velocity):
     """Computed torque on the polar arm along a move: tau(on) - tau(off) = Fc tanh(v / v_s) + Fv v, v the
     reference velocity or the measured one; with an effort limit the sum is clipped."""
     comp = {'coulomb': [2.0, 3.0], 'viscous': [0.5, 0.7], 'velocity_threshold': 0.05, 'velocity': velocity}
-    off = ControllerConfig(POLAR, gains=GAINS)
+    off = ControllerConfig(POLAR, law_params=gain_params(GAINS))
     cores = [ControllerCore(off), ControllerCore(off.replace(friction_compensation=comp))]
     q, qd = np.array([0.3, 0.8]), np.array([0.02, -0.03])
     for core in cores:
@@ -131,7 +132,8 @@ def constant_velocity_lag(config):
                                            ('computed_torque', 'measured')])
 def test_the_compensation_cancels_the_joints_friction_at_constant_velocity(law, velocity):
     iiwa = for_scenario('iiwa')
-    off = ControllerConfig(iiwa, law=law, gains=design(1.0, 12.0).gains(7) if law == 'computed_torque' else None)
+    off = ControllerConfig(iiwa, law=law,
+                           law_params=gain_params(design(1.0, 12.0).gains(7) if law == 'computed_torque' else None))
     without = constant_velocity_lag(off)
     with_ = constant_velocity_lag(off.replace(friction_compensation={'coulomb': FC, 'viscous': FV,
                                                                       'velocity': velocity}))

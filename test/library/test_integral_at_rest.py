@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from robot_control.core.config import ControllerConfig
+from robot_control.laws.servo import gain_params
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import ServoGains
 from robot_control.laws.integral import moving
@@ -38,7 +39,7 @@ PID = ServoGains([108.0] * 7, [18.0] * 7, [216.0] * 7)
 
 def test_an_entry_integrates_only_while_its_error_is_at_rest():
     model = make_model('polar_two_link', m=2.0, gravity=9.8)
-    cfg = ControllerConfig(model, integral=True, gains=ServoGains([4.0] * 2, [4.0] * 2, [1.0] * 2),
+    cfg = ControllerConfig(model, integral=True, law_params=gain_params(ServoGains([4.0] * 2, [4.0] * 2, [1.0] * 2)),
                            integral_rest_velocity=0.01)
     core = ControllerCore(cfg)
     core.update(0.0, [0.0, 1.0], [0.0, 0.0])
@@ -76,9 +77,10 @@ def _travel(errors):
 
 def test_computed_torque_pid_hunts_under_the_friction_and_stops_when_integrating_at_rest():
     model = for_scenario('iiwa')
-    hunting = _hold(ControllerConfig(model, gains=PID, integral=True), 15.0)
+    hunting = _hold(ControllerConfig(model, law_params=gain_params(PID), integral=True), 15.0)
     assert _travel(hunting[5000:])[6] > 0.1, _travel(hunting[5000:])
-    at_rest = _hold(ControllerConfig(model, gains=PID, integral=True, integral_rest_velocity=0.01), 30.0)
+    at_rest = _hold(ControllerConfig(model, law_params=gain_params(PID), integral=True, integral_rest_velocity=0.01),
+                    30.0)
     assert _travel(at_rest[-10000:]).max() <= 1e-3, _travel(at_rest[-10000:])
 
 

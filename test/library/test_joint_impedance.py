@@ -19,6 +19,7 @@ import pybullet_data
 import pytest
 
 from robot_control import scenarios
+from robot_control.laws.servo import gain_params
 from robot_control.core.config import ControllerConfig
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
@@ -151,7 +152,7 @@ def test_an_unmodelled_wrist_torque_leaves_d_over_k_where_computed_torque_leaves
     errors, _ = run_iiwa(ControllerConfig(iiwa, law='joint_impedance'), disturbance=constant)
     np.testing.assert_allclose(errors[-1], -WRIST / K, rtol=0, atol=5e-5)
     kp, wrist = 36.0, slice(4, 7)
-    computed_torque = ControllerConfig(iiwa, gains=design(1.0, 12.0).gains(7))
+    computed_torque = ControllerConfig(iiwa, law_params=gain_params(design(1.0, 12.0).gains(7)))
     ct, _ = run_iiwa(computed_torque, disturbance=constant)
     assert (np.abs(ct[-1][wrist]) > 0.5).all(), ct[-1]
     small = WRIST / 50
@@ -168,7 +169,7 @@ def test_the_law_s_rows_are_in_the_controller_table_and_reach_the_law_through_th
     cfg = ConfigBuilder()(params.TABLE.validate({'scenario': 'iiwa', 'law': 'joint_impedance', 'integral': True,
                                                   'joint_stiffness': [300.0] * 4 + [50.0] * 3, 'joint_damping': [5.0]}))
     law = cfg.control_law
-    assert cfg.gains is None and law.name == 'joint_impedance' and cfg.integral_dim == 7
+    assert cfg.control_law.motion_gains is None and law.name == 'joint_impedance' and cfg.integral_dim == 7
     np.testing.assert_array_equal(law.K, [300.0] * 4 + [50.0] * 3)
     np.testing.assert_array_equal(law.damping(np.zeros(7)), np.full(7, 5.0))
     np.testing.assert_array_equal(law.integral_gains()[0], law.K)

@@ -76,8 +76,8 @@ def test_polar_file_is_the_lecture_example(ros_context):
     try:
         cfg = node.core.config
         assert cfg.law == 'computed_torque' and not cfg.integral
-        np.testing.assert_array_equal(cfg.gains.kp, [36.0, 36.0])
-        np.testing.assert_array_equal(cfg.gains.kv, [12.0, 12.0])
+        np.testing.assert_array_equal(cfg.control_law.motion_gains.kp, [36.0, 36.0])
+        np.testing.assert_array_equal(cfg.control_law.motion_gains.kv, [12.0, 12.0])
         assert cfg.model.m == 2.0
         q = np.array([0.3, 0.8])
         np.testing.assert_allclose(cfg.model.g(q), [19.6 * 0.8 * np.cos(0.3), 19.6 * np.sin(0.3)], rtol=0,
@@ -117,7 +117,7 @@ def test_empty_lists_in_a_file_are_empty(ros_context, tmp_path):
         task = cfg.control_law.force_task
         assert task.force_axes == () and task.k_e.shape == (0,)
         assert node.get_parameter('kp').type_ == Parameter.Type.DOUBLE_ARRAY
-        np.testing.assert_array_equal(cfg.gains.kp, [36.0] * 7)
+        np.testing.assert_array_equal(cfg.control_law.motion_gains.kp, [36.0] * 7)
     finally:
         node.destroy_node()
 
@@ -201,7 +201,7 @@ def test_the_template_is_an_arm_the_package_does_not_ship_and_loads_through_both
     config = ConfigBuilder()(values)
     assert list(config.joints) == ctrl['joints'] == [f'joint{i}' for i in range(1, 8)]
     assert config.model.task_axes == ('x', 'y', 'z', 'rx', 'ry', 'rz') and np.all(config.effort_limit > 0.0)
-    np.testing.assert_array_equal(config.gains.kp, [36.0] * 7)     # omega_n = omega_res / 2 = 6 rad/s
+    np.testing.assert_array_equal(config.control_law.motion_gains.kp, [36.0] * 7)   # omega_n = omega_res / 2 = 6 rad/s
     cfg = bridge_params.build(_through_table(bridge_params.TABLE, bridge))
     assert cfg.joints == tuple(ctrl['joints']) and cfg.urdf == urdf_files.resolve(ctrl['urdf'])
     assert len(cfg.initial_positions) == 7 and not cfg.surface_enable

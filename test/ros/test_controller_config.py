@@ -22,13 +22,14 @@ def test_every_law_builds_from_its_scenario_with_designed_gains(law):
         law, 'polar_two_link')
     cfg = ConfigBuilder()(_values(scenario=scenario, law=law))
     sizes = LAWS[law].servo_sizes(cfg.model, cfg.control_law.force_task.force_axes)
-    assert (cfg.gains is None) == (not sizes) and (not sizes or cfg.gains.n == sizes[0])
+    gains = cfg.control_law.motion_gains
+    assert (gains is None) == (not sizes) and (not sizes or gains.n == sizes[0])
 
 
 def test_the_lecture_example_designs_kp_36_kv_12():
     cfg = ConfigBuilder()(_values(scenario='polar_two_link'))
-    np.testing.assert_array_equal(cfg.gains.kp, [36.0, 36.0])
-    np.testing.assert_array_equal(cfg.gains.kv, [12.0, 12.0])
+    np.testing.assert_array_equal(cfg.control_law.motion_gains.kp, [36.0, 36.0])
+    np.testing.assert_array_equal(cfg.control_law.motion_gains.kv, [12.0, 12.0])
     assert cfg.model.m == 2.0 and cfg.joints == ('theta1', 'r')
     assert cfg.control_law.force_task.gains is None
 
@@ -58,14 +59,14 @@ def test_independent_joint_designs_torque_gains_from_the_inertia_at_the_scenario
     cfg = ConfigBuilder()(_values(scenario='polar_two_link', law='independent_joint'))
     model = make_model('polar_two_link', m=2.0, gravity=9.8)
     diag = np.diag(model.M(np.array(scenarios.get('polar_two_link').q0)))
-    np.testing.assert_allclose(cfg.gains.kp, 36.0 * diag, rtol=1e-12)
+    np.testing.assert_allclose(cfg.control_law.motion_gains.kp, 36.0 * diag, rtol=1e-12)
 
 
 def test_hybrid_gains_per_task_axis_or_per_motion_axis():
     base = dict(scenario='hybrid_cartesian_xy', law='hybrid')
-    assert ConfigBuilder()(_values(**base)).gains.n == 2
+    assert ConfigBuilder()(_values(**base)).control_law.motion_gains.n == 2
     cfg = ConfigBuilder()(_values(**base, kp=[50.0], kv=[10.0]))
-    assert cfg.gains.n == 1 and cfg.control_law.force_task.gains.n == 1
+    assert cfg.control_law.motion_gains.n == 1 and cfg.control_law.force_task.gains.n == 1
 
 
 @pytest.mark.parametrize('changes, name, match', [
@@ -114,7 +115,6 @@ def test_a_law_with_its_own_parameter_is_one_class_and_one_registry_entry(monkey
         """tau = g(q) - d qd, d the law's own parameter (N m s/rad)."""
         name = 'damping'
         tracks = None
-        motion_servo = False
         param_rows = (Row('damping', 'double', 2.0, 'damping law: viscous damping d, N m s/rad', [gt(0)]),)
         Params = DampingParams
 
@@ -130,7 +130,8 @@ def test_a_law_with_its_own_parameter_is_one_class_and_one_registry_entry(monkey
         _values(scenario='polar_two_link', law='damping', damping=-1.0)
     cfg = ConfigBuilder()(_values(scenario='polar_two_link', law='damping', damping=5.0))
     assert cfg.law_params == DampingParams(5.0) and cfg.control_law.name == 'damping'
-    assert ConfigBuilder()(_values(scenario='polar_two_link')).law_params is None     # computed torque: none
+    motion = ConfigBuilder()(_values(scenario='polar_two_link')).law_params.motion_servo    # computed torque's part
+    assert motion.kp.tolist() == [36.0, 36.0] and motion.kv.tolist() == [12.0, 12.0]      # designed, written there
 
 
 def test_a_law_declaring_the_force_setup_gets_its_rows_once_and_reads_its_values(monkeypatch):
@@ -143,7 +144,7 @@ def test_a_law_declaring_the_force_setup_gets_its_rows_once_and_reads_its_values
 
     class Press(Law):
         """tau = g(q) + J^T f_d on the force axes: a feed-forward press (no servo); its Params: the force law's."""
-        name, tracks, needs_task_space, motion_servo = 'press', 'task', True, False
+        name, tracks, needs_task_space = 'press', 'task', True
         parts, Params = (ForceTask,), ForceParams
 
         def torque(self, state, ref, err, int_E):

@@ -568,7 +568,7 @@ def test_valid_parameter_change_takes_effect_on_the_next_tick(ros_context):
         assert all(r.successful for r in result)
         cmd, ref, _ = robot.step(ex, POLAR_JOINTS, q, qd, T0_NS + DT_NS)
         gains = design(2.0, 10.0).gains(2)                         # kv = 2 zeta w_n = 20
-        np.testing.assert_array_equal(ctrl.core.config.gains.kv, [20.0, 20.0])
+        np.testing.assert_array_equal(ctrl.core.config.control_law.motion_gains.kv, [20.0, 20.0])
         want = computed_torque(make_model('polar_two_link', m=2.0, gravity=9.8), q, qd, *_ref_of(ref), gains)
         np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12)
 
@@ -627,7 +627,7 @@ def test_a_gain_rule_refusal_names_the_parameter_that_overrides_it_and_that_para
 @pytest.mark.parametrize('name, value, override, kv', GAIN_RULES)
 def test_a_gain_rule_override_given_at_start_up_designs_the_gains(ros_context, name, value, override, kv):
     with rig(ros_context, **POLAR, **{name: value, override: True}) as (ex, ctrl, robot):
-        np.testing.assert_array_equal(ctrl.core.config.gains.kv, [kv, kv])
+        np.testing.assert_array_equal(ctrl.core.config.control_law.motion_gains.kv, [kv, kv])
 
 
 SO100_ARM = dict(model='urdf', urdf='so_arm_description/urdf/so100.urdf', tip='gripper', law='impedance',
@@ -678,7 +678,7 @@ def test_parameter_service_accepts_integers_and_empty_lists(ros_context):
         assert spin_until(ex, future.done)
         assert [r.successful for r in future.result().results] == [True, True, True]
         assert ctrl.get_parameter('omega_res').value == 10.0
-        np.testing.assert_array_equal(ctrl.core.config.gains.kp, [25.0, 25.0])    # designed again
+        np.testing.assert_array_equal(ctrl.core.config.control_law.motion_gains.kp, [25.0, 25.0])    # designed again
         future = client.set_parameters([Parameter('zeta', Parameter.Type.DOUBLE, 0.7)])
         assert spin_until(ex, future.done)
         result = future.result().results[0]

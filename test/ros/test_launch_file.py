@@ -216,6 +216,6 @@ def test_a_params_file_after_a_scenario_wins(ros_context, tmp_path):
     try:
         assert ctrl.get_parameter('scenario').value == 'iiwa'
         assert ctrl.get_parameter('omega_res').value == 20.0        # iiwa.yaml says 12.0
-        assert list(ctrl.core.config.gains.kp) == [100.0] * 7        # (20 / 2)^2
+        assert list(ctrl.core.config.control_law.motion_gains.kp) == [100.0] * 7        # (20 / 2)^2
     finally:
         ctrl.destroy_node()

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from robot_control.models import make_model
+from robot_control.laws.servo import gain_params
 from robot_control.core.throttle import Throttle
 from sim_bridge import bridge_params
 from sim_bridge.bridge_loop import LockstepLoop, RealtimeLoop, make_loop
@@ -728,7 +729,7 @@ class ControllerLike:
         from robot_control.core.timeline import Timeline
         from robot_control.core.watchdog import StateWatchdog
         from robot_control.gains import design
-        self.core = ControllerCore(ControllerConfig(POLAR, gains=design(1.0, 12.0).gains(2),
+        self.core = ControllerCore(ControllerConfig(POLAR, law_params=gain_params(design(1.0, 12.0).gains(2)),
                                                     effort_limit=[200.0, 200.0]))
         self.timeline, self.watchdog = Timeline(state_timeout), StateWatchdog(state_timeout)
 

@@ -379,7 +379,7 @@ def test_sampled_controller_gains_reach_the_controller_s_design():
                                                      'omega_res': {'loguniform': [6.0, 24.0]}}))
     for k in range(3):
         _, values, drawn = sweep_episode.episode_values(p, k)
-        gains = ConfigBuilder()(controller_params.TABLE.validate(values['controller'])).gains
+        gains = ConfigBuilder()(controller_params.TABLE.validate(values['controller'])).control_law.motion_gains
         w_n = 0.5 * drawn['omega_res']                             # omega_n: 0 = 0.5 omega_res
         assert np.allclose(gains.kp, w_n ** 2) and np.allclose(gains.kv, 2.0 * drawn['zeta'] * w_n)
     assert sweep_episode.run(p, 0)['stable']

@@ -107,13 +107,14 @@ def test_tune_beats_a_slow_start_and_writes_a_params_file_the_controller_reads(t
     values = {**flatten(base['/**/controller']['ros__parameters']), **flatten(given)}
     cfg = ConfigBuilder()(controller_params.TABLE.validate(values))
     omega_n = given['omega_res'] / 2
-    assert cfg.gains.kp.tolist() == pytest.approx([omega_n ** 2] * 2, rel=1e-12)
-    assert cfg.gains.kv.tolist() == pytest.approx([2 * given['zeta'] * omega_n] * 2, rel=1e-12)
+    gains = cfg.control_law.motion_gains
+    assert gains.kp.tolist() == pytest.approx([omega_n ** 2] * 2, rel=1e-12)
+    assert gains.kv.tolist() == pytest.approx([2 * given['zeta'] * omega_n] * 2, rel=1e-12)
     assert imread(out / 'pareto.png').shape[0] > 100
     assert 'chosen: trial' in capsys.readouterr().out
     # ... and the controller node started with it reports the same gains in force
-    assert f'kp {cfg.gains.kp.tolist()}' in node_ready(os.path.join(ROOT, 'config', 'polar_two_link.yaml'),
-                                                        str(out / 'gains.yaml'))
+    assert f'kp {gains.kp.tolist()}' in node_ready(os.path.join(ROOT, 'config', 'polar_two_link.yaml'),
+                                                   str(out / 'gains.yaml'))
     # the file scored on 4 robots of another seed: the slow start passed none of its batch, the file all
     result = json.loads((out / 'tune.json').read_text())
     assert result['evaluation']['seed'] == 11 and result['evaluation']['pass_rate'] == 1.0
