@@ -205,7 +205,8 @@ def test_every_config_yaml_is_installed(tmp_path):
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'pinocchio': 'pinocchio', 'pybullet': 'python3-pybullet-pip',
                'pybullet_data': 'python3-pybullet-pip', 'matplotlib': 'python3-matplotlib', 'yaml': 'python3-yaml',
                'rosbags': 'python3-rosbags-pip', 'modern_robotics': 'python3-modern-robotics-pip',
-               'mujoco': 'python3-mujoco-pip', 'pyarrow': 'python3-pyarrow-pip'}
+               'mujoco': 'python3-mujoco-pip', 'pyarrow': 'python3-pyarrow-pip', 'optuna': 'python3-optuna-pip',
+               'ray': 'python3-ray-pip'}
 
 
 def imported_modules():
