@@ -16,6 +16,9 @@ from robot_control.tools.processes import DomainClaim
 
 CONTROL_PERIOD = 0.001     # s, config/polar_two_link.yaml
 SETTLE = 1.5               # s between the two starts, and of running together
+#: the bridge's command_timeout in real time, s: a busy machine holds a process off the CPU for tens of ms, which
+#: the default 0.05 s would report as a stale command (the stale-command brake is test_robustness' subject)
+REALTIME_COMMAND_TIMEOUT = 1.0
 CLOSED = re.compile(r'loop closed: the first command answers the state stamped ([\d.]+) s '
                     r'\(first state received: ([\d.]+) s\)')
 
@@ -35,7 +38,8 @@ def _up(proc, timeout=30.0):
                                                                           ('lockstep', 'realtime'), (True, False))))
 def test_either_order_starts_cleanly(tmp_path, first, mode, sim_time):
     with DomainClaim(E2E_DOMAINS, timeout=120.0) as claim, rh.processes() as procs:
-        start = {'bridge': lambda: rh.bridge(claim.domain_id, tmp_path, mode=mode),
+        timeout = {'command_timeout': REALTIME_COMMAND_TIMEOUT} if mode == 'realtime' else {}
+        start = {'bridge': lambda: rh.bridge(claim.domain_id, tmp_path, mode=mode, **timeout),
                  'controller': lambda: rh.controller(claim.domain_id, tmp_path, use_sim_time=sim_time)}
         second = 'controller' if first == 'bridge' else 'bridge'
         procs.append(start[first]())
