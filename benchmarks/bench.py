@@ -472,10 +472,12 @@ def table(results):
     return rows + [''] + summary(results)
 
 
-def markdown(results, machine, quick):
-    """The results as a markdown table headed by the machine, for the README."""
+def markdown(results, machine, quick, parts=None):
+    """The results as a markdown table headed by the machine (and `parts`, the parts run, when not all of PARTS;
+    None: all), for the docs."""
     load = machine.get('load_average')
-    head = (f'{"Quick" if quick else "Full"} run of `make bench` on {machine.get("date", "an unknown date")}, '
+    which = '' if parts is None or sorted(parts) == sorted(PARTS) else f' (parts {", ".join(p.upper() for p in parts)} only)'
+    head = (f'{"Quick" if quick else "Full"} run of `make bench`{which} on {machine.get("date", "an unknown date")}, '
             f'{machine["cpu_model"]}, {machine["cores"]} cores, Python {machine["python"]}, '
             f'Pinocchio {machine["pinocchio"]}, PyBullet {machine["pybullet"]}'
             + (f'; load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} at the end (1 / 5 / 15 min).'
@@ -571,7 +573,7 @@ def main(argv=None):
     write_json(os.path.join(args.out, 'results.json'), results)
     write_json(os.path.join(args.out, 'machine.json'), {**machine, 'quick': args.quick})
     with open(os.path.join(args.out, 'results.md'), 'w', encoding='utf-8') as f:
-        f.write(markdown(results, machine, args.quick))
+        f.write(markdown(results, machine, args.quick, args.only))
     print(f'robot_control benchmarks{" (quick)" if args.quick else ""} on {machine["cpu_model"]}, '
           f'{machine["cores"]} cores')
     print('\n'.join(table(results)))
