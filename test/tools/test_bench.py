@@ -289,3 +289,15 @@ def test_floor_exchange_runs_and_reports_its_counts(tmp_path):
     assert 0 <= m['missed'] <= m['periods'] and m['hit_ratio'] == pytest.approx(1 - m['missed'] / m['periods'])
     assert 0 < m['latency_p50_ms'] <= m['latency_p99_ms'] and m['rtf'] > 0
     assert os.path.exists(tmp_path / 'floor_realtime' / 'tick.log')
+
+
+def test_the_markdown_header_names_the_parts_of_a_partial_run():
+    """A run of some parts (--only) says so in the docs' header; a run of every part does not."""
+    from benchmarks import bench
+    machine = {'date': '2026-11-26', 'cpu_model': 'cpu', 'cores': 2, 'python': '3.11', 'pinocchio': '4',
+               'pybullet': '3'}
+    results = {'pin_rnea_us_median': 1.0}
+    partial = bench.markdown(results, machine, False, ['b1', 'b4']).splitlines()[0]
+    assert partial.startswith('Full run of `make bench` (parts B1, B4 only) on 2026-11-26'), partial
+    for parts in (None, list(bench.PARTS)):
+        assert bench.markdown(results, machine, False, parts).startswith('Full run of `make bench` on'), parts
