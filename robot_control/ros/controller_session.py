@@ -171,7 +171,7 @@ class ControllerSession:
                                                     self._wrench_publisher), t_in)
         if self.controller.waiting and self._wrench_wait:
             self._wrench_timer.reset()
-        self._payload.on_state(msg.name, msg.effort)
+        self._payload.on_state(stamp_ns, msg.name, msg.effort)
 
     def _wrench_publisher(self):
         return self._node.count_publishers(self._ft_sub.topic_name) > 0

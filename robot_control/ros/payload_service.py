@@ -10,8 +10,13 @@ on the Job's event (at most TIMEOUT s) while the controller's executor runs on. 
 Controller (start, samples, the solve, the parameter set) runs on the controller's executor, in on_state()
 after each answered state; the service thread only enqueues and waits. The service's name is absolute, the
 controller's fully qualified name + '/identify_payload', i.e. the controller's ~/identify_payload.
+
+An answer that follows an identification ends with the stamp of the joint state it was reached at
+(`answered_text`, read back by `answered_stamp_ns`): the answer itself travels in wall time, the stamp says
+where on the joint_states' clock the payload parameters took effect.
 """
 import collections
+import re
 import threading
 
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -27,6 +32,18 @@ TIMEOUT = 600.0
 #: longest wait of the helper's spin_once, s: how late it notices a stop
 SPIN_PERIOD = 0.1
 PREFIX = 'payload_identification.'
+_STAMPED = re.compile(r'; at the joint state stamped (\d+)\.(\d{9}) s$')
+
+
+def answered_text(message, stamp_ns):
+    """`message`, then the stamp (ns) of the joint state the identification ended at."""
+    return f'{message}; at the joint state stamped {stamp_ns // 1_000_000_000}.{stamp_ns % 1_000_000_000:09d} s'
+
+
+def answered_stamp_ns(message):
+    """The stamp, ns, an answer of answered_text names; None when it names none."""
+    match = _STAMPED.search(message)
+    return None if match is None else int(match[1]) * 1_000_000_000 + int(match[2])
 
 
 class Job:
@@ -43,8 +60,8 @@ class Job:
 
 class PayloadService:
     """~/identify_payload for the Controller `controller` of `node` (module docstring). configure(values) with
-    the node's parameter values (its payload_identification.* rows); on_state(names, efforts) after each
-    answered state; `active()`: True while the controller commands (a call is refused at once otherwise);
+    the node's parameter values (its payload_identification.* rows); on_state(stamp_ns, names, efforts) after
+    each answered state; `active()`: True while the controller commands (a call is refused at once otherwise);
     stop() ends the calls with a failure; destroy() also stops the helper."""
 
     def __init__(self, node, controller, values, active):
@@ -83,8 +100,8 @@ class PayloadService:
         return response
 
     # -- the controller's executor --------------------------------------------------------------------
-    def on_state(self, names, efforts):
-        """After an answered state (its names and efforts): start a call's identification, or feed it."""
+    def on_state(self, stamp_ns, names, efforts):
+        """After an answered state (its stamp ns, names and efforts): start a call's identification, or feed it."""
         if self._ident is None:
             if self._jobs:
                 job = self._jobs.popleft()
@@ -99,7 +116,7 @@ class PayloadService:
             return
         self._ident.tick(self._controller.core, state.q, state.qd, tau)
         if self._ident.done:
-            self._finished(self._ident)
+            self._finished(self._ident, stamp_ns)
 
     def _start(self, job):
         self._job = job
@@ -117,19 +134,20 @@ class PayloadService:
         self._ident.start(core, core.state.q)
         self._node.get_logger().info(f'identifying the payload over {len(offsets)} poses')
 
-    def _finished(self, ident):
+    def _finished(self, ident, stamp_ns):
         if ident.error is not None:
-            self._end(False, str(ident.error))
+            self._end(False, answered_text(str(ident.error), stamp_ns))
             return
         est = ident.estimate
         result = self._node.set_parameters_atomically([
             Parameter('payload.mass', Parameter.Type.DOUBLE, est.mass),
             Parameter('payload.com', Parameter.Type.DOUBLE_ARRAY, [float(c) for c in est.com])])
         if not result.successful:
-            self._end(False, f'{est.message()}; not set: {result.reason}')
+            self._end(False, answered_text(f'{est.message()}; not set: {result.reason}', stamp_ns))
             return
-        self._node.get_logger().info(f'payload identified: {est.message()}')
-        self._end(True, est.message())
+        message = answered_text(est.message(), stamp_ns)
+        self._node.get_logger().info(f'payload identified: {message}')
+        self._end(True, message)
 
     def _end(self, success, message):
         job, self._job, self._ident = self._job, None, None

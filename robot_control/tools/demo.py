@@ -325,8 +325,9 @@ class Schedule:
     the call's `started` text (the work begins at that tick: runs repeat exactly) the bridge runs on, pause_at
     disarmed, until the service answers (its work may need the simulation: ~/identify_payload moves the arm);
     then the named parameters of the controller are read and pause_at is armed for the next change (one already
-    past is made at once). `calls` lists them: [{'t': t s, 't_called', 't_answered': the ticks (s) the bridge stood at or had
-    reached, 'service', 'success', 'message', 'parameters': {name: value}}].
+    past is made at once). `calls` lists them: [{'t': t s, 't_called': the tick (s) the bridge stood at,
+    't_answered': the tick the answer names (robot_control.ros.payload_service.answered_text; else the newest tick seen when
+    it arrived, which a busy machine makes late), 'service', 'success', 'message', 'parameters': {name: value}}].
 
     A parameter change acts from the tick the bridge paused at (its step to the next tick is the first with
     it), the first tick at or past t; `applied` lists them: [{'t': t s, 't_applied': that tick, s,
@@ -396,6 +397,7 @@ class Schedule:
     def _call(self, live, t_ev, t_now, service, started, names):
         """Call `service`, the bridge standing until the controller logs `started` and then running until the
         service answers; record the answer and the controller's parameters `names` in `calls`."""
+        from robot_control.ros.payload_service import answered_stamp_ns
         self.say(f'[demo] calling {service} at t = {t_now:.3f} s (due at t = {t_ev:.3f} s)', flush=True)
         control, mark = live.control, len(live.control.log)
         future = control.call_trigger(service, poll=live.alive)
@@ -404,7 +406,10 @@ class Schedule:
         live.resume()
         control.spin_until(future.done, CALL_TIMEOUT, live.alive, f'{service} to answer')
         success, message = bool(future.result().success), future.result().message
-        t_answered = ((live.collector.last_stamp_ns() or 0) - self.origin_ns) / NS
+        answered_ns = answered_stamp_ns(message)
+        if answered_ns is None:                  # an answer naming no tick: the newest the collector has seen
+            answered_ns = live.collector.last_stamp_ns() or 0
+        t_answered = (answered_ns - self.origin_ns) / NS
         params = live.control.get_parameters('controller', names, poll=live.alive) if names else {}
         self.calls.append({'t': t_ev, 't_called': t_now, 't_answered': t_answered, 'service': service,
                            'success': success, 'message': message, 'parameters': params})

@@ -13,7 +13,8 @@ Every joint moves 0.5 rad in 2 s, then is held to 3.2 s:
     (final error 0.5 rad on joints 5-7), the Panda ends up to 0.09 rad short (checked: > 10x the targets).
 And the payload identified (<arm>_real_identify, 21 s): joint impedance with friction compensation holding the
 move's goal with a 2 kg payload 5 cm out on the flange that the controller is not told of; at 2.7 s the demo calls
-/controller/identify_payload with the bridge running until it answers (7 poses). The links being 10 % heavier
+/controller/identify_payload with the bridge running until it answers (7 poses; the answer names the joint state it
+was reached at, which times it however late a busy machine delivers it). The links being 10 % heavier
 than the model, part of their gravity torque is taken for payload (measured: iiwa 2.69 kg, com 42 mm off; Panda
 2.34 kg, 37 mm off), but the hold error with the identified payload drops (measured: iiwa 16.6 -> 4.0 mrad, Panda
 22.7 -> 4.1 mrad): checked, the answer within 40 % in mass and the hold error at the end below half of the one

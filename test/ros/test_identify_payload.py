@@ -9,6 +9,7 @@ from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
 from robot_control.ros.controller_node import ControllerNode
+from robot_control.ros.payload_service import answered_stamp_ns
 from robot_control.ros.spin import make_executor
 from sim_bridge.bridge_node import SimBridge
 from support.bridge_harness import overrides
@@ -41,12 +42,14 @@ def test_identify_payload_answers_with_the_figures_and_sets_the_payload_paramete
         client = client_node.create_client(Trigger, '/controller/identify_payload')
         assert _spin_until(executor, client.service_is_ready, 30.0)
         assert _spin_until(executor, lambda: controller.commands_sent > 100, 60.0)
-        sent = controller.commands_sent
+        sent, called_ns = controller.commands_sent, bridge.world.t_ns
         future = client.call_async(Trigger.Request())
         assert _spin_until(executor, future.done, DEADLINE)
         answer = future.result()
         assert answer.success, answer.message
         assert answer.message.startswith('mass ') and 'residual' in answer.message
+        # the answer names the joint state the identification ended at: after its 8 moves of 0.8 s
+        assert called_ns + 8 * 800_000_000 < answered_stamp_ns(answer.message) <= bridge.world.t_ns, answer.message
         assert controller.commands_sent > sent + 5000      # the loop ran on while the call waited
         mass = controller.get_parameter('payload.mass').value
         com = np.array(controller.get_parameter('payload.com').value)

@@ -22,6 +22,7 @@ from support.e2e import E2E_DOMAINS
 from robot_control import scenarios
 from robot_control.tools import bag_tracking, demo, demo_experiments, demo_metrics, processes
 from robot_control.tools.processes import DomainClaim
+from robot_control.ros.payload_service import answered_text
 
 ROOT = Path(__file__).resolve().parents[2]
 SUMMARY_KEYS = ('scenario', 'mode', 'duration_s', 'samples', 'rms_error', 'max_error', 'final_error',
@@ -556,6 +557,19 @@ def test_a_service_call_runs_the_bridge_until_it_answers_then_arms_the_next_chan
     live.paused_ns = 15_000_000_000
     schedule.send_due(live, 15_000_000_000)
     assert schedule.applied == [{'t': 3.0, 't_applied': 14.0, 'parameters': change}]
+
+
+def test_a_call_answered_with_its_tick_is_timed_by_that_tick_not_by_when_the_answer_arrived():
+    """An answer naming the joint state it was reached at (payload_service.answered_text: 9.5 s) is timed by it,
+    8.5 s after the origin at 1 s, though the bridge ran on to 15 s while the answer travelled."""
+    schedule = demo.Schedule((), 1_000_000_000, lambda *a, **k: None,
+                             calls=((2.0, '/controller/identify_payload', 'started', ()),))
+    live = _FakeLive(paused_ns=3_000_000_000)
+    live.message = answered_text('mass 2.0000 kg', 9_500_000_000)
+    schedule.arm(live)
+    schedule.send_due(live, 3_000_000_000)
+    assert live.last_stamp_ns() == 15_000_000_000
+    assert schedule.calls[0]['t_answered'] == 8.5 and schedule.calls[0]['message'] == live.message
 
 
 def test_lost_ticks_are_reported_as_time_ranges():
