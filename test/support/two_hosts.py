@@ -307,8 +307,8 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
     [[t_rx_ns, stamp_ns, effort...]], diagnostics [[t_rx_ns, stamp_ns, name, level, message, {key: value}]];
     t_rx = CLOCK_MONOTONIC, which all namespaces share, so the test process can put them beside the
     times it took the link down and up. Every sample is kept (reliable, a deep queue). `progress_path`:
-    {'states', 'commands', 'diagnostics': counts, 'stamp_ns': newest state stamp, 'errors': statuses at ERROR}
-    every PROGRESS_PERIOD.
+    {'states', 'commands', 'diagnostics': counts, 'stamp_ns': newest state stamp, 'first_state_ns',
+    'first_command_ns': the first stamps seen (None before), 'errors': statuses at ERROR} every PROGRESS_PERIOD.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -347,6 +347,8 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
     def write_progress():
         counts = {k: len(v) for k, v in rec.items()}
         counts['stamp_ns'] = rec['states'][-1][1] if rec['states'] else None
+        counts['first_state_ns'] = rec['states'][0][1] if rec['states'] else None
+        counts['first_command_ns'] = rec['commands'][0][1] if rec['commands'] else None
         counts['errors'] = sum(1 for d in rec['diagnostics'] if d[3] == 'ERROR')
         with open(progress_path + '.part', 'w') as f:
             json.dump(counts, f)
