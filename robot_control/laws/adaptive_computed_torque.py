@@ -106,8 +106,8 @@ def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
     V = (L @ S).reshape(6, 2 * n)          # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
     K = model._tick_terms(q, S[4])         # [[J, Jdot, a_g], [M, C, g]]
     P = K[:, :2 * n] @ V.T                 # J and M on each of V's rows, Jdot and C on the qd
-    P[:6, 3:] -= K[:6, 2 * n:]             # J qr_dd + Jdot qr_d - a_g, J x + Jdot qr_d - a_g, Jdot qd - a_g
-    P[6:, 4:] += K[6:, 2 * n:]             # M x + C qr_d + g, C qd + g
+    P[:, 3:] += K[:, 2 * n:]               # J qr_dd + Jdot qr_d - a_g, J x + Jdot qr_d - a_g, Jdot qd - a_g;
+                                           # M x + C qr_d + g, C qd + g (and g on the unused M qr_dd + C qr_d)
     z = np.empty((2, 42))
     slotine_li_arguments(z, P[:6, 0], P[:6, 1], P[:6, 3:5].T)
     Yb = slotine_li_body_regressors(z)     # the regressor's (a_r) and the torque's (a_r - lam J s)

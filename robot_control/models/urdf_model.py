@@ -160,16 +160,18 @@ class UrdfModel(RobotModel):
         self._map = JointMap(model, joints)
         self._a = np.zeros(model.nv)         # scratch: accelerations or torques in Pinocchio's order
         self._zero = np.zeros(model.nv)
-        n = len(joints)
-        self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # CRBA fills the upper triangle only
+        n, iv = len(joints), self._map.iv
+        #: flat indices into CRBA's (nv, nv) output of M in joint order (n, n), each read from the upper triangle
+        #: (CRBA fills only that): M = crba(...).take(self._symmetric)
+        self._symmetric = np.minimum.outer(iv, iv) * model.nv + np.maximum.outer(iv, iv)
         self._limits(model, joints)
         self.tip, self.frame_id, self.task_axes, self.tip_joints = None, None, (), ()
         if tip is not None:
             self.tip, self.frame_id = tip, _frame(model, tip)
             self._tip_joint = model.frames[self.frame_id].parentJoint     # the joint that carries the tip
-            #: scratch [J | Jdot | gravity] (6, 2n + 1) in world axes, carried to the tip frame by one product
+            #: scratch [J | Jdot | -gravity] (6, 2n + 1) in world axes, carried to the tip frame by one product
             self._tip_world = np.empty((6, 2 * n + 1))
-            self._tip_world[:, 2 * n] = self._gravity
+            self._tip_world[:, 2 * n] = -self._gravity
             moving = set(model.supports[self._tip_joint])
             self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
         self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
@@ -210,10 +212,8 @@ class UrdfModel(RobotModel):
 
     # -- the equations (RobotModel): one Pinocchio call each ------------------------------------
     def _M(self, q):
-        """CRBA, symmetrized from its upper triangle."""
-        m = pin.crba(self.model, self._data, self._map.q(q))   # a new array; upper triangle valid
-        np.copyto(m, m.T, where=self._lower_mask)
-        return self._map.matrix(m)
+        """CRBA, symmetrized from its upper triangle (a new array)."""
+        return pin.crba(self.model, self._data, self._map.q(q)).take(self._symmetric)
 
     def _C(self, q, qd):
         """Pinocchio's Coriolis matrix (Mdot - 2C skew)."""
@@ -304,35 +304,38 @@ class UrdfModel(RobotModel):
         pin.computeJointJacobiansTimeVariation(self.model, self._data, self._map.q(q), self._map.v(qd))
         n = self.n
         tip = self._tip_frames(np.empty((6, 2 * n + 1)))
-        return tip[:, :n], tip[:, n:2 * n], tip[:, 2 * n]
+        return tip[:, :n], tip[:, n:2 * n], -tip[:, 2 * n]
 
     def _tip_frames(self, out):
-        """out (6, 2n + 1) = [J | Jdot | a_g] of _tip_motion, from the joints' Jacobians and their rates a pass
-        left in data (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them
-        and the world's gravity to the tip frame."""
+        """out (6, 2n + 1) = [J | Jdot | a_0] of _tip_motion, a_0 = -a_g (Pinocchio's base acceleration that
+        stands for gravity), from the joints' Jacobians and their rates a pass left in data
+        (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them and the world's
+        -gravity to the tip frame."""
         model, data, joint, n, world = self.model, self._data, self._tip_joint, self.n, self._tip_world
         to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
         cols = slice(None) if self._map.identity else self._map.iv
         world[:, :n] = pin.getJointJacobian(model, data, joint, pin.WORLD)[:, cols]
         world[:, n:2 * n] = pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD)[:, cols]
-        return np.matmul(to_tip, world, out=out)
+        return np.dot(to_tip, world, out=out)
 
     def _tick_terms(self, q, qd):
-        """K (6 + n, 2n + 1) = [[J, Jdot, a_g], [M, C, g]]: _tip_motion's and _M, _C, _g at (q, qd), the tip's
+        """K (6 + n, 2n + 1) = [[J, Jdot, -a_g], [M, C, g]]: _tip_motion's and _M, _C, _g at (q, qd), the tip's
         from the Coriolis matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in
-        data); side by side, so that one product applies J and Jdot, M and C, and J with M."""
-        n = self.n
+        data); side by side, so that one product applies J and Jdot, M and C, and J with M, and one sum adds
+        the last column: a_r = J qr_dd + Jdot qr_d - a_g beside M qr_dd + C qr_d + g."""
+        n, jm, model, data = self.n, self._map, self.model, self._data
         K = np.empty((6 + n, 2 * n + 1))
-        K[6:, n:2 * n] = self._C(q, qd)
+        pq = jm.q(q)
+        K[6:, n:2 * n] = jm.matrix(pin.computeCoriolisMatrix(model, data, pq, jm.v(qd)))
         self._tip_frames(K[:6])
-        K[6:, :n] = self._M(q)
-        K[6:, 2 * n] = self._g(q)
+        K[6:, :n] = pin.crba(model, data, pq).take(self._symmetric)
+        K[6:, 2 * n] = jm.joint_order(pin.computeGeneralizedGravity(model, data, pq))
         return K
 
     def _dynamics_and_tip(self, q, qd):
         """(M, C, g, (J, Jdot, a_g)): _tick_terms apart."""
         K, n = self._tick_terms(q, qd), self.n
-        return K[6:, :n], K[6:, n:2 * n], K[6:, 2 * n], (K[:6, :n], K[:6, n:2 * n], K[:6, 2 * n])
+        return K[6:, :n], K[6:, n:2 * n], K[6:, 2 * n], (K[:6, :n], K[:6, n:2 * n], -K[:6, 2 * n])
 
     def _tip_regressor(self, q, qd, qr_d, qr_dd):
         """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
