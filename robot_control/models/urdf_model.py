@@ -412,11 +412,12 @@ def tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd):
     return J.T @ slotine_li_body_regressors(z)[0]
 
 
-def slotine_li_arguments(z, v, v_r, a_r):
+def slotine_li_arguments(z, v, v_r, a_r=None):
     """Fill z (k, 42), row i = [a_r_i, (v v_r^T).ravel()], the arguments of slotine_li_body_regressors: k
-    evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row."""
-    z[:, :6] = a_r
-    np.multiply(v[:, None], v_r, out=z[0, 6:].reshape(6, 6))
+    evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row (None: z[:, :6] holds them)."""
+    if a_r is not None:
+        z[:, :6] = a_r
+    np.dot(v[:, None], v_r[None, :], out=z[0, 6:].reshape(6, 6))
     if len(z) > 1:
         z[1:, 6:] = z[0, 6:]
 
