@@ -94,6 +94,14 @@ def _reference_matrix(lam, designed):
     return np.array((qd, zero, qr_d, zero, s, zero, qr_dd, qr_d, x, qr_d, zero, qd))
 
 
+def _reference_scratch(n):
+    """V (6, 2n + 1): the pairs of _reference_matrix's rows as (6, 2n) (filled each tick), then the column
+    (0, 0, 0, 1, 1, 1) that adds the last column of K (UrdfModel._tick_terms) where a_r and g enter."""
+    V = np.empty((6, 2 * n + 1))
+    V[:, 2 * n] = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+    return V
+
+
 def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
     """(tau, grad, terms): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, grad = Y^T s (10,), with
     Y = J^T Y_b (n, 10) the tip body's regressor (Y_b = slotine_li_body_regressors at v = J qd, v_r = J qr_d,
@@ -103,32 +111,32 @@ def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
     L (12, 5) of _reference_matrix(lam, kd is None), S = [E, Ed, qd_d, qdd_d, qd] (5, n); terms = ([J; M]
     (6 + n, n), C qd + g, J qd, Jdot qd - a_g) for TorquePrediction.record_terms. Checked arrays, theta (10,).
     _tick_arguments, then _tick_torque (the law's tick evaluates the prediction's regressor between them)."""
-    z = np.empty((2, 42))
-    V, K, P = _tick_arguments(model, L, S, q, z)
+    z, V = np.empty((2, 42)), _reference_scratch(model.n)
+    K, P = _tick_arguments(model, L, S, q, z, V)
     return _tick_torque(V, K, P, slotine_li_body_regressors(z), theta, kd)
 
 
-def _tick_arguments(model, L, S, q, z):
-    """(V, K, P) of _adaptive_computed_torque and z[:2] (k >= 2, 42) the arguments of the tip body's regressors
-    (slotine_li_arguments): V = L S (6, 2n), K = model._tick_terms(q, qd), P = K [V^T; 1] (6 + n, 6)."""
+def _tick_arguments(model, L, S, q, z, V):
+    """(K, P) of _adaptive_computed_torque, V (_reference_scratch) filled with L S and z[:2] (k >= 2, 42) with
+    the arguments of the tip body's regressors (slotine_li_arguments): K = model._tick_terms(q, qd),
+    P = V K^T (6, 6 + n), each row [J | M] applied to a pair of V plus the last column where it enters."""
     n = model.n
-    V = np.dot(L, S).reshape(6, 2 * n)     # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
+    V[:, :2 * n] = np.dot(L, S).reshape(6, 2 * n)  # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
     K = model._tick_terms(q, S[4])         # [[J, Jdot, -a_g], [M, C, g]]
-    P = np.dot(K[:, :2 * n], V.T)          # J and M on each of V's rows, Jdot and C on the qd
-    P[:, 3:] += K[:, 2 * n:]               # J qr_dd + Jdot qr_d - a_g, J x + Jdot qr_d - a_g, Jdot qd - a_g;
-                                           # M x + C qr_d + g, C qd + g (and g on the unused M qr_dd + C qr_d)
-    slotine_li_arguments(z[:2], P[:6, 0], P[:6, 1], P[:6, 3:5].T)
-    return V, K, P
+    P = np.dot(V, K.T)                     # rows J qd; J qr_d; J s; J qr_dd + Jdot qr_d - a_g | M qr_dd + C qr_d + g;
+                                           # J x + Jdot qr_d - a_g | M x + C qr_d + g; Jdot qd - a_g | C qd + g
+    slotine_li_arguments(z[:2], P[0, :6], P[1, :6], P[3:5, :6])
+    return K, P
 
 
 def _tick_torque(V, K, P, Yb, theta, kd):
     """(tau, grad, terms) of _adaptive_computed_torque from _tick_arguments' V, K, P and Y_b (k >= 2, 6, 10), the
     regressors of its arguments: the regressor's (a_r) and the torque's (a_r - lam J s)."""
-    n = V.shape[1] // 2
-    tau = P[6:, 4] + np.dot(K[:6, :n].T, np.dot(Yb[1], theta))
+    n = K.shape[1] // 2
+    tau = P[4, 6:] + np.dot(K[:6, :n].T, np.dot(Yb[1], theta))
     if kd is not None:
         tau -= kd * V[2, :n]
-    return tau, np.dot(P[:6, 2], Yb[0]), (K[:, :n], P[6:, 5], P[:6, 0], P[:6, 5])
+    return tau, np.dot(P[2, :6], Yb[0]), (K[:, :n], P[5, 6:], P[0, :6], P[5, :6])
 
 
 def _adaptation_step(theta, grad, dt_gamma, prediction=None):
@@ -319,6 +327,7 @@ class AdaptiveComputedTorque(Law):
                            if self.rho > 0.0 else None)
         self._L = _reference_matrix(self.lam, self.kd is None)
         self._z = np.empty((3, 42))      # the regressors' arguments: the law's two and the prediction's
+        self._V = _reference_scratch(self.model.n)
         self.theta = np.zeros(10)        # the estimate theta_hat
         self._t = self._grad = None      # time and Y^T s of the last tick
 
@@ -341,13 +350,13 @@ class AdaptiveComputedTorque(Law):
         regressors for the law and, over the step from the last tick, for the prediction."""
         t, qd, z, prediction = state.t, state.qd, self._z, self.prediction
         S = np.array((err.E, err.Ed, ref.qd_d, ref.qdd_d, qd))
-        V, K, P = _tick_arguments(self.model, self._L, S, state.q, z)
+        K, P = _tick_arguments(self.model, self._L, S, state.q, z, self._V)
         sampled = prediction is not None and prediction.arguments(t, qd, z[2:])
         Yb = slotine_li_body_regressors(z if sampled else z[:2])
         if sampled:
             prediction.filter(Yb[2])
         self._adapt(t, sampled)
-        tau, self._grad, terms = _tick_torque(V, K, P, Yb, self.theta, self.kd)
+        tau, self._grad, terms = _tick_torque(self._V, K, P, Yb, self.theta, self.kd)
         if prediction is not None:
             prediction.record_terms(t, qd, tau, *terms)
         return tau

@@ -417,9 +417,7 @@ def slotine_li_arguments(z, v, v_r, a_r=None):
     evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row (None: z[:, :6] holds them)."""
     if a_r is not None:
         z[:, :6] = a_r
-    np.dot(v[:, None], v_r[None, :], out=z[0, 6:].reshape(6, 6))
-    if len(z) > 1:
-        z[1:, 6:] = z[0, 6:]
+    np.multiply(v[:, None], v_r, out=z[:, 6:].reshape(len(z), 6, 6))
 
 
 def slotine_li_body_regressors(z):
