@@ -117,7 +117,7 @@ def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
 
 
 def _tick_arguments(model, L, S, q, z, V):
-    """(K, P) of _adaptive_computed_torque, V (_reference_scratch) filled with L S and z[:2] (k >= 2, 42) with
+    """(K, P) of _adaptive_computed_torque, V (_reference_scratch) filled with L S and z (2, 42) with
     the arguments of the tip body's regressors (slotine_li_arguments): K = model._tick_terms(q, qd),
     P = V K^T (6, 6 + n), each row [J | M] applied to a pair of V plus the last column where it enters."""
     n = model.n
@@ -125,7 +125,7 @@ def _tick_arguments(model, L, S, q, z, V):
     K = model._tick_terms(q, S[4])         # [[J, Jdot, -a_g], [M, C, g]]
     P = np.dot(V, K.T)                     # rows J qd; J qr_d; J s; J qr_dd + Jdot qr_d - a_g | M qr_dd + C qr_d + g;
                                            # J x + Jdot qr_d - a_g | M x + C qr_d + g; Jdot qd - a_g | C qd + g
-    slotine_li_arguments(z[:2], P[0, :6], P[1, :6], P[3:5, :6])
+    slotine_li_arguments(z, P[0, :6], P[1, :6], P[3:5, :6])
     return K, P
 
 
@@ -327,6 +327,7 @@ class AdaptiveComputedTorque(Law):
                            if self.rho > 0.0 else None)
         self._L = _reference_matrix(self.lam, self.kd is None)
         self._z = np.empty((3, 42))      # the regressors' arguments: the law's two and the prediction's
+        self._z_law, self._z_prediction = self._z[:2], self._z[2:]
         self._V = _reference_scratch(self.model.n)
         self.theta = np.zeros(10)        # the estimate theta_hat
         self._t = self._grad = None      # time and Y^T s of the last tick
@@ -348,11 +349,11 @@ class AdaptiveComputedTorque(Law):
     def torque(self, state, ref, err, int_E):
         """_adaptive_computed_torque at the estimate adapted to this tick: one product evaluates the tip body's
         regressors for the law and, over the step from the last tick, for the prediction."""
-        t, qd, z, prediction = state.t, state.qd, self._z, self.prediction
+        t, qd, prediction = state.t, state.qd, self.prediction
         S = np.array((err.E, err.Ed, ref.qd_d, ref.qdd_d, qd))
-        K, P = _tick_arguments(self.model, self._L, S, state.q, z, self._V)
-        sampled = prediction is not None and prediction.arguments(t, qd, z[2:])
-        Yb = slotine_li_body_regressors(z if sampled else z[:2])
+        K, P = _tick_arguments(self.model, self._L, S, state.q, self._z_law, self._V)
+        sampled = prediction is not None and prediction.arguments(t, qd, self._z_prediction)
+        Yb = slotine_li_body_regressors(self._z if sampled else self._z_law)
         if sampled:
             prediction.filter(Yb[2])
         self._adapt(t, sampled)

@@ -34,7 +34,7 @@ class TorquePrediction:
         self.W, self.r = self.filtered[:10].T, self.filtered[10]
         self._z = np.empty((1, 42))
         self._last = self._step = None
-        self._dt = self._alpha_dt = None
+        self._rate = -2.0 * math.pi * cutoff_hz          # alpha = 1 - exp(rate dt), 1/s
 
     def record(self, t, qd, tau, M, h, tip_motion):
         """The tick at t (s): velocity qd (n,), the law's torque tau (n,), the model's M (n, n) and
@@ -79,14 +79,8 @@ class TorquePrediction:
         sample, filtered = self._sample, self.filtered
         np.dot(Yb.T, J0, out=sample[:10])
         sample -= filtered                  # x_f += alpha (x - x_f), W and r at once
-        sample *= self._alpha(dt)
+        sample *= 1.0 - math.exp(self._rate * dt)     # alpha = 1 - exp(-2 pi f dt)
         filtered += sample
-
-    def _alpha(self, dt):
-        """alpha = 1 - exp(-2 pi f dt) of the filter, for a step of dt s (the last one's kept)."""
-        if dt != self._dt:
-            self._dt, self._alpha_dt = dt, 1.0 - math.exp(-2.0 * math.pi * self.cutoff_hz * dt)
-        return self._alpha_dt
 
     def error(self, theta):
         """e = W_f theta - r_f (n,), N m."""

@@ -109,6 +109,10 @@ class JointMap:
         """A Pinocchio (nv, nv) matrix in joint order (n, n)."""
         return m if self.identity else m[self.ix]
 
+    def columns(self, m):
+        """The columns (k, n) in joint order of a matrix (k, nv) over Pinocchio's tangent space."""
+        return m if self.identity else m[:, self.iv]
+
 
 class UrdfModel(RobotModel):
     """Rigid-body dynamics of URDF robot `urdf` restricted to `joints`, via Pinocchio.
@@ -311,11 +315,10 @@ class UrdfModel(RobotModel):
         stands for gravity), from the joints' Jacobians and their rates a pass left in data
         (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them and the world's
         -gravity to the tip frame."""
-        model, data, joint, n, world = self.model, self._data, self._tip_joint, self.n, self._tip_world
+        model, data, joint, n, world, jm = self.model, self._data, self._tip_joint, self.n, self._tip_world, self._map
         to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
-        cols = slice(None) if self._map.identity else self._map.iv
-        world[:, :n] = pin.getJointJacobian(model, data, joint, pin.WORLD)[:, cols]
-        world[:, n:2 * n] = pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD)[:, cols]
+        world[:, :n] = jm.columns(pin.getJointJacobian(model, data, joint, pin.WORLD))
+        world[:, n:2 * n] = jm.columns(pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD))
         return np.dot(to_tip, world, out=out)
 
     def _tick_terms(self, q, qd):
@@ -417,13 +420,15 @@ def slotine_li_arguments(z, v, v_r, a_r=None):
     evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row (None: z[:, :6] holds them)."""
     if a_r is not None:
         z[:, :6] = a_r
-    np.multiply(v[:, None], v_r, out=z[:, 6:].reshape(len(z), 6, 6))
+    np.dot(v[:, None], v_r[None, :], out=z[0, 6:].reshape(6, 6))
+    if len(z) > 1:
+        z[1:, 6:] = z[0, 6:]
 
 
 def slotine_li_body_regressors(z):
     """Y_b (k, 6, 10) = _slotine_li_body_regressor(v, v_r, a_r) per row of z (k, 42) (slotine_li_arguments),
     evaluated by its coefficients: z @ _SLOTINE_LI_COEFFICIENTS, one product for the k rows."""
-    return (z @ _SLOTINE_LI_COEFFICIENTS).reshape(-1, 6, 10)
+    return np.dot(z, _SLOTINE_LI_COEFFICIENTS).reshape(-1, 6, 10)
 
 
 def _slotine_li_body_regressor(v, v_r, a_r):
