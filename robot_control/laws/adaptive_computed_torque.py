@@ -368,7 +368,7 @@ class AdaptiveComputedTorque(Law):
         last, self._t = self._t, t
         if last is None or not 0.0 < t - last <= MAX_ADAPTATION_STEP:
             return
-        prediction = ((self.prediction.filtered[:10], self.prediction.error(self.theta), self.rho, self._gamma_W)
-                      if sampled else None)
+        prediction = self.prediction
+        prediction = (prediction.WT, prediction.error(self.theta), self.rho, self._gamma_W) if sampled else None
         step = _adaptation_step(self.theta, self._grad, (t - last) * self.gamma, prediction)
         self.theta = _project(step, self.gamma, self.mass_max, self.com_max)

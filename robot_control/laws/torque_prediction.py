@@ -26,12 +26,14 @@ from robot_control.models.urdf_model import slotine_li_arguments, slotine_li_bod
 class TorquePrediction:
     """W_f (n, 10) and r_f (n,), filtered at cutoff_hz (> 0, Hz), from the ticks recorded; a step of at most
     max_step s is sampled, a longer one (or a time going back) is not. filtered (11, n) = [W_f^T; r_f^T], of
-    which W and r are views."""
+    which WT = W_f^T, W and r are views."""
 
     def __init__(self, n, cutoff_hz, max_step):
         self.cutoff_hz, self.max_step = cutoff_hz, max_step
         self.filtered, self._sample = np.zeros((11, n)), np.empty((11, n))    # [W^T; r^T], filtered and sampled
-        self.W, self.r = self.filtered[:10].T, self.filtered[10]
+        self.WT, self.r = self.filtered[:10], self.filtered[10]
+        self.W = self.WT.T
+        self._sample_W, self._sample_r = self._sample[:10], self._sample[10]
         self._z = np.empty((1, 42))
         self._last = self._step = None
         self._rate = -2.0 * math.pi * cutoff_hz          # alpha = 1 - exp(rate dt), 1/s
@@ -68,7 +70,7 @@ class TorquePrediction:
         JMa = np.dot(JM0, (qd - qd0) / dt)
         np.add(JMa[:6], b0, out=z[0, :6])
         slotine_li_arguments(z, v0, v0)
-        np.subtract(c0, JMa[6:], out=self._sample[10])
+        np.subtract(c0, JMa[6:], out=self._sample_r)
         self._step = (dt, JM0[:6])
         return True
 
@@ -77,14 +79,14 @@ class TorquePrediction:
         [W^T; r^T] (11, n), W = J0^T Y_b, filtered in."""
         dt, J0 = self._step
         sample, filtered = self._sample, self.filtered
-        np.dot(Yb.T, J0, out=sample[:10])
+        np.dot(Yb.T, J0, out=self._sample_W)
         sample -= filtered                  # x_f += alpha (x - x_f), W and r at once
         sample *= 1.0 - math.exp(self._rate * dt)     # alpha = 1 - exp(-2 pi f dt)
         filtered += sample
 
     def error(self, theta):
         """e = W_f theta - r_f (n,), N m."""
-        return np.dot(theta, self.filtered[:10]) - self.r
+        return np.dot(theta, self.WT) - self.r
 
     def continue_from(self, old):
         """Take over another prediction's filter and last tick (same model)."""
