@@ -220,9 +220,8 @@ class UrdfModel(RobotModel):
         return pin.crba(self.model, self._data, self._map.q(q)).take(self._symmetric)
 
     def _C(self, q, qd):
-        """Pinocchio's Coriolis matrix (Mdot - 2C skew)."""
-        return self._map.matrix(pin.computeCoriolisMatrix(self.model, self._data, self._map.q(q),
-                                                          self._map.v(qd)).copy())
+        """Pinocchio's Coriolis matrix (Mdot - 2C skew; a new array, as Pinocchio returns it)."""
+        return self._map.matrix(pin.computeCoriolisMatrix(self.model, self._data, self._map.q(q), self._map.v(qd)))
 
     def _C_qd(self, q, qd):
         """C(q, qd) qd = rnea(q, qd, 0) - g(q)."""
@@ -231,7 +230,8 @@ class UrdfModel(RobotModel):
         return self._map.joint_order(h - pin.computeGeneralizedGravity(self.model, self._data, pq))
 
     def _g(self, q):
-        return self._map.joint_order(pin.computeGeneralizedGravity(self.model, self._data, self._map.q(q)).copy())
+        """Pinocchio's generalized gravity (a new array, as Pinocchio returns it)."""
+        return self._map.joint_order(pin.computeGeneralizedGravity(self.model, self._data, self._map.q(q)))
 
     def _inverse_dynamics(self, q, qd, qdd):
         """M qdd + C qd + g by RNEA: the same terms in one recursive pass."""
@@ -326,13 +326,12 @@ class UrdfModel(RobotModel):
         from the Coriolis matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in
         data); side by side, so that one product applies J and Jdot, M and C, and J with M, and one sum adds
         the last column: a_r = J qr_dd + Jdot qr_d - a_g beside M qr_dd + C qr_d + g."""
-        n, jm, model, data = self.n, self._map, self.model, self._data
+        n = self.n
         K = np.empty((6 + n, 2 * n + 1))
-        pq = jm.q(q)
-        K[6:, n:2 * n] = jm.matrix(pin.computeCoriolisMatrix(model, data, pq, jm.v(qd)))
+        K[6:, n:2 * n] = self._C(q, qd)
         self._tip_frames(K[:6])
-        K[6:, :n] = pin.crba(model, data, pq).take(self._symmetric)
-        K[6:, 2 * n] = jm.joint_order(pin.computeGeneralizedGravity(model, data, pq))
+        K[6:, :n] = self._M(q)
+        K[6:, 2 * n] = self._g(q)
         return K
 
     def _dynamics_and_tip(self, q, qd):
