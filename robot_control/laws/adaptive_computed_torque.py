@@ -94,6 +94,14 @@ def _reference_matrix(lam, designed):
     return np.array((qd, zero, qr_d, zero, s, zero, qr_dd, qr_d, x, qr_d, zero, qd))
 
 
+def _reference_scratch(n):
+    """V (6, 2n + 1): the pairs of _reference_matrix's rows as (6, 2n) (filled each tick), then the column
+    (0, 0, 0, 1, 1, 1) that adds the last column of K (UrdfModel._tick_terms) where a_r and g enter."""
+    V = np.empty((6, 2 * n + 1))
+    V[:, 2 * n] = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+    return V
+
+
 def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
     """(tau, grad, terms): tau = M(q) qr_dd + C(q, qd) qr_d + g(q) + Y theta - K_D s, grad = Y^T s (10,), with
     Y = J^T Y_b (n, 10) the tip body's regressor (Y_b = slotine_li_body_regressors at v = J qd, v_r = J qr_d,
@@ -101,29 +109,47 @@ def _adaptive_computed_torque(model, L, S, q, theta, kd=None):
     designed as K_D = lam M_hat(q), M_hat = M(q) + M_theta(q) the model's inertia with the estimate's:
     K_D s = lam (M s + J^T A(J s) theta) folds into M x + J^T Y_b(v, v_r, a_r - lam J s) theta, x = qr_dd - lam s.
     L (12, 5) of _reference_matrix(lam, kd is None), S = [E, Ed, qd_d, qdd_d, qd] (5, n); terms = ([J; M]
-    (6 + n, n), C qd + g, J qd, Jdot qd - a_g) for TorquePrediction.record_terms. Checked arrays, theta (10,)."""
+    (6 + n, n), C qd + g, J qd, Jdot qd - a_g) for TorquePrediction.record_terms. Checked arrays, theta (10,).
+    _tick_arguments, then _tick_torque (the law's tick evaluates the prediction's regressor between them)."""
+    z, V = np.empty((2, 42)), _reference_scratch(model.n)
+    K, P = _tick_arguments(model, L, S, q, z, V)
+    return _tick_torque(V, K, P, slotine_li_body_regressors(z), theta, kd)
+
+
+def _tick_arguments(model, L, S, q, z, V):
+    """(K, P) of _adaptive_computed_torque, V (_reference_scratch) filled with L S and z (2, 42) with
+    the arguments of the tip body's regressors (slotine_li_arguments): K = model._tick_terms(q, qd),
+    P = V K^T (6, 6 + n), each row [J | M] applied to a pair of V plus the last column where it enters."""
     n = model.n
-    V = (L @ S).reshape(6, 2 * n)          # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
-    K = model._tick_terms(q, S[4])         # [[J, Jdot, a_g], [M, C, g]]
-    P = K[:, :2 * n] @ V.T                 # J and M on each of V's rows, Jdot and C on the qd
-    P[:6, 3:] -= K[:6, 2 * n:]             # J qr_dd + Jdot qr_d - a_g, J x + Jdot qr_d - a_g, Jdot qd - a_g
-    P[6:, 4:] += K[6:, 2 * n:]             # M x + C qr_d + g, C qd + g
-    z = np.empty((2, 42))
-    slotine_li_arguments(z, P[:6, 0], P[:6, 1], P[:6, 3:5].T)
-    Yb = slotine_li_body_regressors(z)     # the regressor's (a_r) and the torque's (a_r - lam J s)
-    tau = P[6:, 4] + K[:6, :n].T @ (Yb[1] @ theta)
+    V[:, :2 * n] = np.dot(L, S).reshape(6, 2 * n)  # [qd|0], [qr_d|0], [s|0], [qr_dd|qr_d], [x|qr_d], [0|qd]
+    K = model._tick_terms(q, S[4])         # [[J, Jdot, -a_g], [M, C, g]]
+    P = np.dot(V, K.T)                     # rows J qd; J qr_d; J s; J qr_dd + Jdot qr_d - a_g | M qr_dd + C qr_d + g;
+                                           # J x + Jdot qr_d - a_g | M x + C qr_d + g; Jdot qd - a_g | C qd + g
+    slotine_li_arguments(z, P[0, :6], P[1, :6], P[3:5, :6])
+    return K, P
+
+
+def _tick_torque(V, K, P, Yb, theta, kd):
+    """(tau, grad, terms) of _adaptive_computed_torque from _tick_arguments' V, K, P and Y_b (k >= 2, 6, 10), the
+    regressors of its arguments: the regressor's (a_r) and the torque's (a_r - lam J s)."""
+    n = K.shape[1] // 2
+    tau = P[4, 6:] + np.dot(K[:6, :n].T, np.dot(Yb[1], theta))
     if kd is not None:
         tau -= kd * V[2, :n]
-    return tau, P[:6, 2] @ Yb[0], (K[:, :n], P[6:, 5], P[:6, 0], P[:6, 5])
+    return tau, np.dot(P[2, :6], Yb[0]), (K[:, :n], P[5, 6:], P[0, :6], P[5, :6])
 
 
-def _adaptation_step(theta, grad, gamma, dt, W=None, e=None, rho=0.0):
+def _adaptation_step(theta, grad, dt_gamma, prediction=None):
     """theta + dt theta_dot (10,), theta_dot = -Gamma (Y^T s + W^T R e), R = rho / (1 + tr(W Gamma W^T));
-    grad = Y^T s (10,), gamma (10,) the diagonal of Gamma, dt s; W (n, 10), e (n,) the prediction (None: the
-    first term alone)."""
-    if W is not None:
-        grad = grad + (rho / (1.0 + np.vdot(W * gamma, W))) * (e @ W)
-    return theta - (dt * gamma) * grad
+    grad = Y^T s (10,), dt_gamma (10,) the step dt (s) times Gamma's diagonal; prediction (W^T (10, n), e (n,),
+    rho, Gamma's diagonal on each of W^T's columns (10, n)), or None: the first term alone."""
+    if prediction is not None:
+        WT, e, rho, gamma_W = prediction
+        step = np.dot(WT, e)
+        step *= rho / (1.0 + np.vdot(WT * WT, gamma_W))
+        step += grad
+        grad = step
+    return theta - dt_gamma * grad
 
 
 def _project(theta, gamma, mass_max, com_max):
@@ -131,23 +157,28 @@ def _project(theta, gamma, mass_max, com_max):
     its diagonal with one value on the three first moments: mass and first moment on the cone
     |m c| <= com_max m cut at m = mass_max, each rotational inertia entry clipped to its bounds; theta itself
     when it is in Omega."""
-    lower, upper = _inertia_bounds(mass_max, com_max)
-    m, hx, hy, hz = theta[:4].tolist()
-    inertia = theta[INERTIA]
-    clipped = np.minimum(np.maximum(inertia, lower), upper)
-    if 0.0 <= m <= mass_max and hx * hx + hy * hy + hz * hz <= (com_max * m) ** 2 and (clipped == inertia).all():
+    bounds = _inertia_bounds(mass_max, com_max)
+    m, hx, hy, hz, *inertia = theta.tolist()
+    if 0.0 <= m <= mass_max and hx * hx + hy * hy + hz * hz <= (com_max * m) ** 2 and _within(inertia, bounds):
         return theta
-    out = np.empty(10)
-    out[:4] = _project_on_cone(m, (hx, hy, hz), float(gamma[0]), float(gamma[1]), mass_max, com_max)
-    out[INERTIA] = clipped
-    return out
+    cone = _project_on_cone(m, (hx, hy, hz), float(gamma[0]), float(gamma[1]), mass_max, com_max)
+    return np.array([*cone, *[lower if value < lower else upper if value > upper else value
+                              for value, (lower, upper) in zip(inertia, bounds)]])
 
 
 @functools.lru_cache(maxsize=8)
 def _inertia_bounds(mass_max, com_max):
-    """(lower, upper) (6,) of the rotational inertia's entries in Omega, kg m^2."""
+    """The (lower, upper) bounds (floats, kg m^2) of each of the rotational inertia's entries in Omega."""
     bound = mass_max * com_max ** 2
-    return bound * _INERTIA_LOWER, bound * _INERTIA_UPPER
+    return tuple(zip((bound * _INERTIA_LOWER).tolist(), (bound * _INERTIA_UPPER).tolist()))
+
+
+def _within(values, bounds):
+    """True when each value (floats) lies in its (lower, upper) of bounds."""
+    for value, (lower, upper) in zip(values, bounds):
+        if not lower <= value <= upper:
+            return False
+    return True
 
 
 def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
@@ -160,18 +191,18 @@ def _project_on_cone(m, h, gamma_m, gamma_h, mass_max, com_max):
     x_max goes to the disk |y| <= b x_max at x_max."""
     rm, rh = math.sqrt(gamma_m), math.sqrt(gamma_h)
     x, b, x_max = m / rm, com_max * rm / rh, mass_max / rm
-    y = [c / rh for c in h]
-    r = math.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])
+    y0, y1, y2 = h[0] / rh, h[1] / rh, h[2] / rh
+    r = math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    scale = 1.0                               # y's, from here on
     if r > b * x:
         if b * r <= -x:
-            x, y, r = 0.0, [0.0, 0.0, 0.0], 0.0
+            x = r = y0 = y1 = y2 = 0.0
         else:
             x = (x + b * r) / (1.0 + b * b)
-            y, r = [c * (b * x / r) for c in y], b * x
+            scale, r = b * x / r, b * x
     if x > x_max and r > 0.0:
-        scale = min(1.0, b * x_max / r)
-        y = [c * scale for c in y]
-    return (min(x, x_max) * rm, *(c * rh for c in y))
+        y0, y1, y2, scale = y0 * scale, y1 * scale, y2 * scale, min(1.0, b * x_max / r)
+    return min(x, x_max) * rm, y0 * scale * rh, y1 * scale * rh, y2 * scale * rh
 
 
 def adaptive_computed_torque(model, q, qd, q_d, qd_d, qdd_d, theta, lam, kd=None):
@@ -289,11 +320,15 @@ class AdaptiveComputedTorque(Law):
         self.lam = params.adaptive_lambda
         self.kd = per_joint('adaptive_kd', params.adaptive_kd, self.model.n) if params.adaptive_kd else None
         self.gamma = _gamma_diagonal('adaptation_gain', params.adaptation_gain)
+        self._gamma_W = np.repeat(self.gamma[:, None], self.model.n, axis=1)     # Gamma on each column of W^T
         self.mass_max, self.com_max = params.adaptive_mass_max, params.adaptive_com_max
         self.rho = params.adaptive_prediction_rate
         self.prediction = (TorquePrediction(self.model.n, params.adaptive_prediction_cutoff_hz, MAX_ADAPTATION_STEP)
                            if self.rho > 0.0 else None)
         self._L = _reference_matrix(self.lam, self.kd is None)
+        self._z = np.empty((3, 42))      # the regressors' arguments: the law's two and the prediction's
+        self._z_law, self._z_prediction = self._z[:2], self._z[2:]
+        self._V = _reference_scratch(self.model.n)
         self.theta = np.zeros(10)        # the estimate theta_hat
         self._t = self._grad = None      # time and Y^T s of the last tick
 
@@ -312,20 +347,28 @@ class AdaptiveComputedTorque(Law):
                 self.prediction.continue_from(old.prediction)
 
     def torque(self, state, ref, err, int_E):
-        self._adapt(state.t, state.qd)
-        S = np.array((err.E, err.Ed, ref.qd_d, ref.qdd_d, state.qd))
-        tau, self._grad, terms = _adaptive_computed_torque(self.model, self._L, S, state.q, self.theta, self.kd)
-        if self.prediction is not None:
-            self.prediction.record_terms(state.t, state.qd, tau, *terms)
+        """_adaptive_computed_torque at the estimate adapted to this tick: one product evaluates the tip body's
+        regressors for the law and, over the step from the last tick, for the prediction."""
+        t, qd, prediction = state.t, state.qd, self.prediction
+        S = np.array((err.E, err.Ed, ref.qd_d, ref.qdd_d, qd))
+        K, P = _tick_arguments(self.model, self._L, S, state.q, self._z_law, self._V)
+        sampled = prediction is not None and prediction.arguments(t, qd, self._z_prediction)
+        Yb = slotine_li_body_regressors(self._z if sampled else self._z_law)
+        if sampled:
+            prediction.filter(Yb[2])
+        self._adapt(t, sampled)
+        tau, self._grad, terms = _tick_torque(self._V, K, P, Yb, self.theta, self.kd)
+        if prediction is not None:
+            prediction.record_terms(t, qd, tau, *terms)
         return tau
 
-    def _adapt(self, t, qd):
-        """theta_hat at t: one Euler step of theta_hat_dot from the last tick's Y^T s and the prediction sampled
-        over the step to (t, qd), projected."""
+    def _adapt(self, t, sampled):
+        """theta_hat at t: one Euler step of theta_hat_dot from the last tick's Y^T s and (sampled: True) the
+        prediction sampled over the step to t, projected."""
         last, self._t = self._t, t
-        sampled = self.prediction is not None and self.prediction.sample(t, qd)
         if last is None or not 0.0 < t - last <= MAX_ADAPTATION_STEP:
             return
-        W, e = (self.prediction.W, self.prediction.error(self.theta)) if sampled else (None, None)
-        step = _adaptation_step(self.theta, self._grad, self.gamma, t - last, W, e, self.rho)
+        prediction = self.prediction
+        prediction = (prediction.WT, prediction.error(self.theta), self.rho, self._gamma_W) if sampled else None
+        step = _adaptation_step(self.theta, self._grad, (t - last) * self.gamma, prediction)
         self.theta = _project(step, self.gamma, self.mass_max, self.com_max)

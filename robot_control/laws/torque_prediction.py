@@ -25,15 +25,18 @@ from robot_control.models.urdf_model import slotine_li_arguments, slotine_li_bod
 
 class TorquePrediction:
     """W_f (n, 10) and r_f (n,), filtered at cutoff_hz (> 0, Hz), from the ticks recorded; a step of at most
-    max_step s is sampled, a longer one (or a time going back) is not."""
+    max_step s is sampled, a longer one (or a time going back) is not. filtered (11, n) = [W_f^T; r_f^T], of
+    which WT = W_f^T, W and r are views."""
 
     def __init__(self, n, cutoff_hz, max_step):
         self.cutoff_hz, self.max_step = cutoff_hz, max_step
-        self._filtered, self._sample = np.zeros((n, 11)), np.empty((n, 11))    # [W | r], filtered and sampled
-        self.W, self.r = self._filtered[:, :10], self._filtered[:, 10]
+        self.filtered, self._sample = np.zeros((11, n)), np.empty((11, n))    # [W^T; r^T], filtered and sampled
+        self.WT, self.r = self.filtered[:10], self.filtered[10]
+        self.W = self.WT.T
+        self._sample_W, self._sample_r = self._sample[:10], self._sample[10]
         self._z = np.empty((1, 42))
-        self._last = None
-        self._dt = self._alpha_dt = None
+        self._last = self._step = None
+        self._rate = -2.0 * math.pi * cutoff_hz          # alpha = 1 - exp(rate dt), 1/s
 
     def record(self, t, qd, tau, M, h, tip_motion):
         """The tick at t (s): velocity qd (n,), the law's torque tau (n,), the model's M (n, n) and
@@ -47,36 +50,45 @@ class TorquePrediction:
         self._last = (t, qd, tau - h, JM, v, b)
 
     def sample(self, t, qd):
-        """Filter in the step from the last recorded tick to (t, qd): True when a step was sampled. The sample
-        [W | r] (n, 11): W = J0^T Y_b(v0, v0, J0 a + b0) (slotine_li_body_regressors), r = (tau0 - h0) - M0 a,
-        with a = (qd - qd0) / (t - t0) and J0 a, M0 a from one product."""
+        """Filter in the step from the last recorded tick to (t, qd): True when a step was sampled (arguments,
+        then filter with the regressor of its arguments)."""
+        if not self.arguments(t, qd, self._z):
+            return False
+        self.filter(slotine_li_body_regressors(self._z)[0])
+        return True
+
+    def arguments(self, t, qd, z):
+        """Begin the sample of the step from the last recorded tick to (t, qd): True when it can be sampled,
+        with z (1, 42) then holding the arguments (slotine_li_arguments) of its regressor Y_b(v0, v0, J0 a + b0)
+        for filter, and r = (tau0 - h0) - M0 a, with a = (qd - qd0) / (t - t0) and J0 a, M0 a from one product."""
         if self._last is None:
             return False
         t0, qd0, c0, JM0, v0, b0 = self._last
         dt = t - t0
         if not 0.0 < dt <= self.max_step:
             return False
-        JMa = JM0 @ ((qd - qd0) / dt)
-        slotine_li_arguments(self._z, v0, v0, JMa[:6] + b0)
-        sample, filtered = self._sample, self._filtered
-        np.matmul(JM0[:6].T, slotine_li_body_regressors(self._z)[0], out=sample[:, :10])
-        np.subtract(c0, JMa[6:], out=sample[:, 10])
-        sample -= filtered                  # x_f += alpha (x - x_f), W and r at once
-        sample *= self._alpha(dt)
-        filtered += sample
+        JMa = np.dot(JM0, (qd - qd0) / dt)
+        np.add(JMa[:6], b0, out=z[0, :6])
+        slotine_li_arguments(z, v0, v0)
+        np.subtract(c0, JMa[6:], out=self._sample_r)
+        self._step = (dt, JM0[:6])
         return True
 
-    def _alpha(self, dt):
-        """alpha = 1 - exp(-2 pi f dt) of the filter, for a step of dt s (the last one's kept)."""
-        if dt != self._dt:
-            self._dt, self._alpha_dt = dt, 1.0 - math.exp(-2.0 * math.pi * self.cutoff_hz * dt)
-        return self._alpha_dt
+    def filter(self, Yb):
+        """End the sample arguments began, Y_b (6, 10) the regressor of its arguments: the sample
+        [W^T; r^T] (11, n), W = J0^T Y_b, filtered in."""
+        dt, J0 = self._step
+        sample, filtered = self._sample, self.filtered
+        np.dot(Yb.T, J0, out=self._sample_W)
+        sample -= filtered                  # x_f += alpha (x - x_f), W and r at once
+        sample *= 1.0 - math.exp(self._rate * dt)     # alpha = 1 - exp(-2 pi f dt)
+        filtered += sample
 
     def error(self, theta):
         """e = W_f theta - r_f (n,), N m."""
-        return self.W @ theta - self.r
+        return np.dot(theta, self.WT) - self.r
 
     def continue_from(self, old):
         """Take over another prediction's filter and last tick (same model)."""
-        self._filtered[...] = old._filtered
+        self.filtered[...] = old.filtered
         self._last = old._last

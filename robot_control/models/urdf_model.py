@@ -109,6 +109,10 @@ class JointMap:
         """A Pinocchio (nv, nv) matrix in joint order (n, n)."""
         return m if self.identity else m[self.ix]
 
+    def columns(self, m):
+        """The columns (k, n) in joint order of a matrix (k, nv) over Pinocchio's tangent space."""
+        return m if self.identity else m[:, self.iv]
+
 
 class UrdfModel(RobotModel):
     """Rigid-body dynamics of URDF robot `urdf` restricted to `joints`, via Pinocchio.
@@ -160,16 +164,18 @@ class UrdfModel(RobotModel):
         self._map = JointMap(model, joints)
         self._a = np.zeros(model.nv)         # scratch: accelerations or torques in Pinocchio's order
         self._zero = np.zeros(model.nv)
-        n = len(joints)
-        self._lower_mask = np.tril(np.ones((n, n), dtype=bool), -1)   # CRBA fills the upper triangle only
+        n, iv = len(joints), self._map.iv
+        #: flat indices into CRBA's (nv, nv) output of M in joint order (n, n), each read from the upper triangle
+        #: (CRBA fills only that): M = crba(...).take(self._symmetric)
+        self._symmetric = np.minimum.outer(iv, iv) * model.nv + np.maximum.outer(iv, iv)
         self._limits(model, joints)
         self.tip, self.frame_id, self.task_axes, self.tip_joints = None, None, (), ()
         if tip is not None:
             self.tip, self.frame_id = tip, _frame(model, tip)
             self._tip_joint = model.frames[self.frame_id].parentJoint     # the joint that carries the tip
-            #: scratch [J | Jdot | gravity] (6, 2n + 1) in world axes, carried to the tip frame by one product
+            #: scratch [J | Jdot | -gravity] (6, 2n + 1) in world axes, carried to the tip frame by one product
             self._tip_world = np.empty((6, 2 * n + 1))
-            self._tip_world[:, 2 * n] = self._gravity
+            self._tip_world[:, 2 * n] = -self._gravity
             moving = set(model.supports[self._tip_joint])
             self.tip_joints = tuple(j for j in joints if model.getJointId(j) in moving)
         self.task_space = task_space = task_space_for(task_space, len(self.tip_joints))
@@ -210,15 +216,12 @@ class UrdfModel(RobotModel):
 
     # -- the equations (RobotModel): one Pinocchio call each ------------------------------------
     def _M(self, q):
-        """CRBA, symmetrized from its upper triangle."""
-        m = pin.crba(self.model, self._data, self._map.q(q))   # a new array; upper triangle valid
-        np.copyto(m, m.T, where=self._lower_mask)
-        return self._map.matrix(m)
+        """CRBA, symmetrized from its upper triangle (a new array)."""
+        return pin.crba(self.model, self._data, self._map.q(q)).take(self._symmetric)
 
     def _C(self, q, qd):
-        """Pinocchio's Coriolis matrix (Mdot - 2C skew)."""
-        return self._map.matrix(pin.computeCoriolisMatrix(self.model, self._data, self._map.q(q),
-                                                          self._map.v(qd)).copy())
+        """Pinocchio's Coriolis matrix (Mdot - 2C skew; a new array, as Pinocchio returns it)."""
+        return self._map.matrix(pin.computeCoriolisMatrix(self.model, self._data, self._map.q(q), self._map.v(qd)))
 
     def _C_qd(self, q, qd):
         """C(q, qd) qd = rnea(q, qd, 0) - g(q)."""
@@ -227,7 +230,8 @@ class UrdfModel(RobotModel):
         return self._map.joint_order(h - pin.computeGeneralizedGravity(self.model, self._data, pq))
 
     def _g(self, q):
-        return self._map.joint_order(pin.computeGeneralizedGravity(self.model, self._data, self._map.q(q)).copy())
+        """Pinocchio's generalized gravity (a new array, as Pinocchio returns it)."""
+        return self._map.joint_order(pin.computeGeneralizedGravity(self.model, self._data, self._map.q(q)))
 
     def _inverse_dynamics(self, q, qd, qdd):
         """M qdd + C qd + g by RNEA: the same terms in one recursive pass."""
@@ -304,23 +308,24 @@ class UrdfModel(RobotModel):
         pin.computeJointJacobiansTimeVariation(self.model, self._data, self._map.q(q), self._map.v(qd))
         n = self.n
         tip = self._tip_frames(np.empty((6, 2 * n + 1)))
-        return tip[:, :n], tip[:, n:2 * n], tip[:, 2 * n]
+        return tip[:, :n], tip[:, n:2 * n], -tip[:, 2 * n]
 
     def _tip_frames(self, out):
-        """out (6, 2n + 1) = [J | Jdot | a_g] of _tip_motion, from the joints' Jacobians and their rates a pass
-        left in data (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them
-        and the world's gravity to the tip frame."""
-        model, data, joint, n, world = self.model, self._data, self._tip_joint, self.n, self._tip_world
+        """out (6, 2n + 1) = [J | Jdot | a_0] of _tip_motion, a_0 = -a_g (Pinocchio's base acceleration that
+        stands for gravity), from the joints' Jacobians and their rates a pass left in data
+        (computeJointJacobiansTimeVariation, computeCoriolisMatrix): one product carries them and the world's
+        -gravity to the tip frame."""
+        model, data, joint, n, world, jm = self.model, self._data, self._tip_joint, self.n, self._tip_world, self._map
         to_tip = pin.updateFramePlacement(model, data, self.frame_id).toActionMatrixInverse()    # world -> tip frame
-        cols = slice(None) if self._map.identity else self._map.iv
-        world[:, :n] = pin.getJointJacobian(model, data, joint, pin.WORLD)[:, cols]
-        world[:, n:2 * n] = pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD)[:, cols]
-        return np.matmul(to_tip, world, out=out)
+        world[:, :n] = jm.columns(pin.getJointJacobian(model, data, joint, pin.WORLD))
+        world[:, n:2 * n] = jm.columns(pin.getJointJacobianTimeVariation(model, data, joint, pin.WORLD))
+        return np.dot(to_tip, world, out=out)
 
     def _tick_terms(self, q, qd):
-        """K (6 + n, 2n + 1) = [[J, Jdot, a_g], [M, C, g]]: _tip_motion's and _M, _C, _g at (q, qd), the tip's
+        """K (6 + n, 2n + 1) = [[J, Jdot, -a_g], [M, C, g]]: _tip_motion's and _M, _C, _g at (q, qd), the tip's
         from the Coriolis matrix's pass (computeCoriolisMatrix leaves the joints' Jacobians and their rates in
-        data); side by side, so that one product applies J and Jdot, M and C, and J with M."""
+        data); side by side, so that one product applies J and Jdot, M and C, and J with M, and one sum adds
+        the last column: a_r = J qr_dd + Jdot qr_d - a_g beside M qr_dd + C qr_d + g."""
         n = self.n
         K = np.empty((6 + n, 2 * n + 1))
         K[6:, n:2 * n] = self._C(q, qd)
@@ -332,7 +337,7 @@ class UrdfModel(RobotModel):
     def _dynamics_and_tip(self, q, qd):
         """(M, C, g, (J, Jdot, a_g)): _tick_terms apart."""
         K, n = self._tick_terms(q, qd), self.n
-        return K[6:, :n], K[6:, n:2 * n], K[6:, 2 * n], (K[:6, :n], K[:6, n:2 * n], K[:6, 2 * n])
+        return K[6:, :n], K[6:, n:2 * n], K[6:, 2 * n], (K[:6, :n], K[:6, n:2 * n], -K[:6, 2 * n])
 
     def _tip_regressor(self, q, qd, qr_d, qr_dd):
         """Y (n, 10): the share of a body carried by the tip in M(q) qr_dd + C(q, qd) qr_d + g(q), as
@@ -409,11 +414,12 @@ def tip_body_regressor(J, Jdot, a_g, qd, qr_d, qr_dd):
     return J.T @ slotine_li_body_regressors(z)[0]
 
 
-def slotine_li_arguments(z, v, v_r, a_r):
+def slotine_li_arguments(z, v, v_r, a_r=None):
     """Fill z (k, 42), row i = [a_r_i, (v v_r^T).ravel()], the arguments of slotine_li_body_regressors: k
-    evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row."""
-    z[:, :6] = a_r
-    np.multiply(v[:, None], v_r, out=z[0, 6:].reshape(6, 6))
+    evaluations at one (v, v_r) (6,) each, a_r (6,) for all or (k, 6) one per row (None: z[:, :6] holds them)."""
+    if a_r is not None:
+        z[:, :6] = a_r
+    np.dot(v[:, None], v_r[None, :], out=z[0, 6:].reshape(6, 6))
     if len(z) > 1:
         z[1:, 6:] = z[0, 6:]
 
@@ -421,7 +427,7 @@ def slotine_li_arguments(z, v, v_r, a_r):
 def slotine_li_body_regressors(z):
     """Y_b (k, 6, 10) = _slotine_li_body_regressor(v, v_r, a_r) per row of z (k, 42) (slotine_li_arguments),
     evaluated by its coefficients: z @ _SLOTINE_LI_COEFFICIENTS, one product for the k rows."""
-    return (z @ _SLOTINE_LI_COEFFICIENTS).reshape(-1, 6, 10)
+    return np.dot(z, _SLOTINE_LI_COEFFICIENTS).reshape(-1, 6, 10)
 
 
 def _slotine_li_body_regressor(v, v_r, a_r):

@@ -270,6 +270,18 @@ def test_iiwa_mass_matrix_spd_and_mdot_minus_2c_skew(iiwa):
         close(iiwa.C(q, qd) @ qd, iiwa.C_qd(q, qd))
 
 
+def test_the_dynamics_terms_are_new_arrays_a_later_call_leaves_alone(iiwa):
+    """M, C and g come back as arrays of their own (Pinocchio returns copies; UrdfModel makes none): the next
+    evaluation at another state does not change them."""
+    q, qd = np.full(7, 0.3), np.full(7, -0.7)
+    terms = (iiwa.M(q), iiwa.C(q, qd), iiwa.g(q))
+    kept = [a.copy() for a in terms]
+    iiwa.M(-q), iiwa.C(-q, 2.0 * qd), iiwa.g(-q), iiwa._tick_terms(-q, 2.0 * qd)
+    for term, copy in zip(terms, kept):
+        np.testing.assert_array_equal(term, copy)
+    assert not np.array_equal(iiwa.g(-q), kept[2])
+
+
 def test_iiwa_jacobian_and_bias_match_finite_differences(iiwa):
     rng = np.random.default_rng(RNG_SEED + 5)
     h = 1e-6
