@@ -93,6 +93,7 @@ def realtime():
         s0 = loop.progress('a')['stamp_ns']
         c0, t0 = net.counters('a'), time.monotonic_ns()
         loop.wait_for(lambda: _stamp_reached(loop, s0 + TICKS * PERIOD_NS), WAIT, f'{TICKS} more ticks')
+        loop.wait_for(lambda: _own_diagnostics_seen(loop), WAIT, "each node's /diagnostics on its own host")
         rss_before = loop.rss_kb()
         # down for OUTAGE s, and on until the controller's host has seen an ERROR (the watchdog's): a busy
         # machine may take longer than the outage to show it
@@ -110,6 +111,15 @@ def realtime():
     res.update(t_down=t_down, t_up=t_up, rss_before=rss_before, rss_after=rss_after, ticks=(s1 - s0) // PERIOD_NS,
                packets={k: c1[k] - c0[k] for k in ('tx_packets', 'rx_packets')}, packets_wall_s=(t1 - t0) / NS)
     return res
+
+
+def _own_diagnostics_seen(loop):
+    """The observer on each host receives the /diagnostics of the node there (the bridge's brakes on a, the
+    controller's watchdog on b): a busy machine may let an observer match a writer on its own host seconds late,
+    and the outage tests read what each says from the moment the link goes down."""
+    a, b = loop.progress('a'), loop.progress('b')
+    return (a is not None and any(name.endswith(': brakes') for name in a['diagnostic_names'])
+            and b is not None and any(name.endswith('joint_states watchdog') for name in b['diagnostic_names']))
 
 
 def test_the_realtime_loop_closes_over_the_link(realtime):

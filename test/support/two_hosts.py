@@ -308,7 +308,8 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
     t_rx = CLOCK_MONOTONIC, which all namespaces share, so the test process can put them beside the
     times it took the link down and up. Every sample is kept (reliable, a deep queue). `progress_path`:
     {'states', 'commands', 'diagnostics': counts, 'stamp_ns': newest state stamp, 'first_state_ns',
-    'first_command_ns': the first stamps seen (None before), 'errors': statuses at ERROR} every PROGRESS_PERIOD.
+    'first_command_ns': the first stamps seen (None before), 'errors': statuses at ERROR, 'diagnostic_names': the
+    status names seen} every PROGRESS_PERIOD.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -339,10 +340,13 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
         d = dict(zip(msg.name, msg.effort))
         rec['commands'].append([time.monotonic_ns(), stamp(msg), *[d.get(j, float('nan')) for j in order]])
 
+    names = set()
+
     def on_diag(msg):
         t = time.monotonic_ns()
         for s in msg.status:
             rec['diagnostics'].append([t, stamp(msg), s.name, *diagnostic_values(s)])
+            names.add(s.name)
 
     def write_progress():
         counts = {k: len(v) for k, v in rec.items()}
@@ -350,6 +354,7 @@ def observe(out_path, joints, topics=tuple(OBSERVED), progress_path=None):
         counts['first_state_ns'] = rec['states'][0][1] if rec['states'] else None
         counts['first_command_ns'] = rec['commands'][0][1] if rec['commands'] else None
         counts['errors'] = sum(1 for d in rec['diagnostics'] if d[3] == 'ERROR')
+        counts['diagnostic_names'] = sorted(names)
         with open(progress_path + '.part', 'w') as f:
             json.dump(counts, f)
         os.replace(progress_path + '.part', progress_path)
