@@ -24,6 +24,11 @@ for path in (ROOT, HERE):   # the package under test, and the shared helpers bes
     if path not in sys.path:
         sys.path.insert(0, path)
 
+# The nodes' Fast DDS settings (non-blocking UDP, writers' heartbeat, readers' room) for every participant of this
+# process, as the nodes' main() and the demo apply them: Fast DDS reads them with the process's first participant.
+from robot_control.ros import dds  # noqa: E402
+dds.apply_defaults()
+
 
 @pytest.fixture
 def ros_context():

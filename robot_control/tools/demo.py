@@ -455,7 +455,7 @@ class LiveRun:
         from robot_control.tools import demo_ros
         from robot_control.tools.record import Recorder
         self.recorder = Recorder(self.control.node, bag, [f'{t}:{ty}' for t, ty in demo_ros.RUN_TOPICS.items()],
-                                 all_topics=True, discovery_timeout=0.0, overwrite=True)
+                                 all_topics=True, discovery_timeout=0.0, overwrite=True, depth=demo_ros.DEPTH)
         self.recorder.start()
 
     def stop_recording(self):

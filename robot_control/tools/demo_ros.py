@@ -22,11 +22,16 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
 
-from robot_control.ros import conversions
+from robot_control.ros import conversions, dds
 from robot_control.ros.qos import REFERENCE_QOS
 from robot_control.tools.taps import Tap, spin_for
 
-DEPTH = 10000
+#: the collector's and the recorder's reader depth, samples per topic: DDS's threads take every sample in while the
+#: demo's Python thread is behind, and a reader drops the oldest unread one past its depth. Beside stress-ng --cpu 2
+#: the demo fell more than 5000 ticks behind a lockstep run of 21 s (it kept 0.82 of its ticks); 100000 holds the
+#: backlog of any demo experiment (the readers' room: robot_control/ros/fastdds_profile.xml, which context_with_domain
+#: loads). A reader's history grows as samples wait: 8 readers of depth 10000 or 200000 start with the same RSS.
+DEPTH = 100000
 SPIN_ROUND = 0.005    # s, one round of RunControl.spin_until
 STARTUP_WAIT = 10.0   # s for a service of a node already running to be discovered
 COLLECT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
@@ -325,8 +330,10 @@ def align(collector, joints, joint_units, force_axes, force_axis_index, law, ori
 
 
 def context_with_domain(domain_id):
-    """A fresh rclpy Context on `domain_id` (the caller shuts it down)."""
+    """A fresh rclpy Context on `domain_id` (the caller shuts it down), with the nodes' Fast DDS settings
+    (robot_control.ros.dds; they take effect when this is the process's first participant)."""
     from rclpy.signals import SignalHandlerOptions
+    dds.apply_defaults()
     ctx = rclpy.Context()
     rclpy.init(context=ctx, domain_id=int(domain_id), signal_handler_options=SignalHandlerOptions.NO)
     return ctx
