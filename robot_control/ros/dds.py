@@ -15,7 +15,9 @@ apply_defaults() sets, where the environment does not already say otherwise:
 - FASTRTPS_DEFAULT_PROFILES_FILE = the shipped fastdds_profile.xml (beside this module): a heartbeat
   every 100 ms on every writer (Fast DDS: 3 s). A reliable reader that missed samples waits for the
   writer's next heartbeat before it asks for them again, and holds every newer sample meanwhile: after
-  a link failure the loop resumes within about 0.2 s of the link's return instead of up to 3 s.
+  a link failure the loop resumes within about 0.2 s of the link's return instead of up to 3 s. And room
+  for 200000 samples in every reader (Fast DDS: 5000), so that a deep subscription (a recorder) keeps what
+  its KEEP_LAST depth says while its process is busy.
 
 Fast DDS reads the transports whenever it creates a participant (the first node of an rclpy context) and
 the profiles file once per process, with its first participant; so robot_control.ros.spin.run_node, the
@@ -28,7 +30,7 @@ import os
 
 #: Fast DDS's built-in transports (shared memory + UDPv4) with non-blocking UDP sends
 TRANSPORTS = 'DEFAULT?non_blocking=true'
-#: the shipped Fast DDS profile (writers' heartbeat period)
+#: the shipped Fast DDS profile (writers' heartbeat period, readers' room)
 PROFILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'fastdds_profile.xml')
 #: the environment variables apply_defaults sets, and their values
 DEFAULTS = {'FASTDDS_BUILTIN_TRANSPORTS': TRANSPORTS, 'FASTRTPS_DEFAULT_PROFILES_FILE': PROFILE}
