@@ -2,8 +2,8 @@
 
     python -m benchmarks.bench_pingpong ping --joints theta1 r [--executor events] [--ros-args ...]
     python -m benchmarks.bench_pingpong pong --joints theta1 r [--executor single] [--ros-args ...]
-    python -m benchmarks.bench_pingpong tick --joints a b c [--period 0.001] [--executor events]
-    python -m benchmarks.bench_pingpong echo --joints a b c [--executor events]
+    python -m benchmarks.bench_pingpong tick --joints a b c [--period 0.001] [--executor events] [--wrench]
+    python -m benchmarks.bench_pingpong echo --joints a b c [--executor events] [--wrench]
 
 B2 (lockstep), `ping` and `pong`:
 Same messages, topics, QoS (the nodes' publisher and subscription profiles) and stamps as the
@@ -19,7 +19,10 @@ period restarted when the pacing is anchored, every due tick run at once) and on
 state stamped k * period on `joint_states`; it reads the answers on `robot_joint_commands` and sends
 their efforts back as the state's efforts. `echo` answers each state with a command of efforts carrying
 the state's stamp. Both write and read the messages as serialized bytes with robot_control.ros.cdr, as
-the bridge and the controller do, with the same topics and QoS.
+the bridge and the controller do, with the same topics and QoS. With `--wrench` both also carry the force
+stream of a law that reads the measured force (hybrid, impedance): `tick` publishes a
+geometry_msgs/WrenchStamped (zeros) on `ft_sensor/wrench`, stamped like the state and published just before
+it, as the bridge does; `echo` subscribes to it and decodes each one, as the controller does.
 """
 import argparse
 import sys
@@ -28,6 +31,7 @@ import time
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from geometry_msgs.msg import WrenchStamped
 from sensor_msgs.msg import JointState
 
 from robot_control import units
@@ -37,6 +41,7 @@ from sim_bridge.pacing import RealtimePacer
 
 NS = units.NS_PER_S
 REPUBLISH_S = 0.1
+ZERO3 = (0.0, 0.0, 0.0)
 
 
 def _joint_state(names, fields):
@@ -94,9 +99,10 @@ class Pong(Node):
 
 
 class Tick(Node):
-    """Publishes the state of every tick that falls due at 1 / period per second of the steady clock."""
+    """Publishes the state of every tick that falls due at 1 / period per second of the steady clock (after
+    the tick's wrench when `wrench`)."""
 
-    def __init__(self, joints, period_ns):
+    def __init__(self, joints, period_ns, wrench=False):
         super().__init__('floor_tick')
         self._period_ns = period_ns
         self._ticks = 0
@@ -106,6 +112,8 @@ class Tick(Node):
         self._effort = self._zeros
         self._pacer = RealtimePacer(period_ns)
         self._pub = self.create_publisher(JointState, 'joint_states', CONTROL_PUB_QOS)
+        self._wrench = cdr.WrenchEncoder() if wrench else None
+        self._pub_wrench = self.create_publisher(WrenchStamped, 'ft_sensor/wrench', CONTROL_PUB_QOS) if wrench else None
         self.create_subscription(JointState, 'robot_joint_commands', self._on_command, CONTROL_QOS, raw=True)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         # as the bridge: one period of wall time, no faster than 2 kHz; restarted when pacing is anchored
@@ -115,8 +123,10 @@ class Tick(Node):
         self._timer.reset()
 
     def _publish(self):
-        self._pub.publish(self._encoder.encode(self._ticks * self._period_ns, self._zeros, self._zeros,
-                                               self._effort))
+        stamp_ns = self._ticks * self._period_ns
+        if self._wrench is not None:
+            self._pub_wrench.publish(self._wrench.encode(stamp_ns, ZERO3, ZERO3))
+        self._pub.publish(self._encoder.encode(stamp_ns, self._zeros, self._zeros, self._effort))
 
     def _on_command(self, data):
         msg = self._decoder.decode(data)
@@ -130,15 +140,18 @@ class Tick(Node):
 
 
 class Echo(Node):
-    """Answers every state with a command of efforts (zeros) carrying the state's stamp."""
+    """Answers every state with a command of efforts (zeros) carrying the state's stamp; decodes each wrench
+    when `wrench`."""
 
-    def __init__(self, joints):
+    def __init__(self, joints, wrench=False):
         super().__init__('floor_echo')
         self._decoder = cdr.JointStateDecoder(arrays=False)
         self._encoder = cdr.JointStateEncoder(joints, fields=('effort',))
         self._effort = [0.0] * len(joints)
         self._pub = self.create_publisher(JointState, 'robot_joint_commands', CONTROL_PUB_QOS)
         self.create_subscription(JointState, 'joint_states', self._on_state, CONTROL_QOS, raw=True)
+        if wrench:
+            self.create_subscription(WrenchStamped, 'ft_sensor/wrench', cdr.decode_wrench, CONTROL_QOS, raw=True)
 
     def _on_state(self, data):
         msg = self._decoder.decode(data)
@@ -149,7 +162,7 @@ class Echo(Node):
 
 #: role -> the node it runs, from the parsed options
 ROLES = {'ping': lambda o: Ping(o.joints, round(o.period * NS)), 'pong': lambda o: Pong(o.joints),
-         'tick': lambda o: Tick(o.joints, round(o.period * NS)), 'echo': lambda o: Echo(o.joints)}
+         'tick': lambda o: Tick(o.joints, round(o.period * NS), o.wrench), 'echo': lambda o: Echo(o.joints, o.wrench)}
 
 
 def parse_args(argv):
@@ -159,6 +172,7 @@ def parse_args(argv):
     parser.add_argument('--executor', choices=('single', 'events'), default='single')
     parser.add_argument('--period', type=float, default=0.001,
                         help='ping: stamp increment; tick: the period and stamp increment, s')
+    parser.add_argument('--wrench', action='store_true', help='tick and echo: also the ft_sensor/wrench stream')
     return parser.parse_args(argv)
 
 

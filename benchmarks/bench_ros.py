@@ -25,8 +25,11 @@ profile), from the samples of the whole run:
 - real-time factor = simulated time advance / publication time advance of the states.
 The floor of B3: the same figures, counted the same way by the same observer, of the bare exchange
 (benchmarks.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
-physics, no law), run once before each run of REALTIME_RUNS and pooled (missed periods and periods
-summed). Each run's missed periods are held against the floor's over as many periods (missed_vs_floor).
+physics, no law), run once before each run of REALTIME_RUNS with that run's messages: states and
+commands, and ft_sensor/wrench too before a run whose law reads the measured force (reads_wrench: the
+hybrid run), since each message costs both processes a wake-up. The floors of the same messages are
+pooled (missed periods and periods summed); each run's missed periods are held against them over as many
+periods (missed_vs_floor).
 Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance,
 _iiwa_typical (computed torque on the iiwa's typical profile), _iiwa_joint_impedance_typical (joint impedance, its
 integral and friction compensation on that profile: the demo's iiwa_real_move), _iiwa_mujoco.
@@ -149,17 +152,30 @@ def experiment_params(name):
 BARE = {'pingpong': ('polar_two_link', 'ping', 'pong'), 'floor': ('iiwa', 'tick', 'echo')}
 
 
-def node_commands(kind, mode, experiment=None, realism='ideal', engine=None):
+def reads_wrench(scenario, experiment=None):
+    """Whether the controller of `scenario` with the parameters of demo experiment `experiment` (None: the
+    scenario's file alone) reads the measured force: its loop then carries ft_sensor/wrench beside the states."""
+    from robot_control.core.status import needs_wrench
+    from robot_control.ros import controller_params
+    from robot_control.tools import sweep_episode, sweep_spec
+    p = sweep_episode.plan(sweep_spec.load({'experiment': experiment} if experiment else
+                                           {'scenario': scenario, 'duration': 1.0}))
+    return needs_wrench(p.builder(controller_params.TABLE.validate(p.values['controller'])))
+
+
+def node_commands(kind, mode, experiment=None, realism='ideal', engine=None, wrench=False):
     """[(name, argv)] of the two processes of a run: a kind of BARE or a scenario name, with the parameters of
     demo experiment `experiment` (None: the scenario's file alone); the bridge stacks the scenario's profile of
     `realism` ('ideal': none) after the scenario's file and runs on physics engine `engine` (None: its default).
-    The ends of a bare exchange use the executors of the nodes they stand for."""
+    The ends of a bare exchange use the executors of the nodes they stand for, and carry ft_sensor/wrench too
+    when `wrench` (the messages of a loop whose law reads the force)."""
     if kind in BARE:
         scenario, *roles = BARE[kind]
         joints = list(scenarios.get(scenario).joints)
         ends = zip(roles, ('sim_bridge.bridge_node', 'robot_control.ros.controller_node'))
         return [(role, ['-m', 'benchmarks.bench_pingpong', role, '--joints', *joints, '--period',
-                        str(PERIOD_NS / NS), '--executor', node_executor(module)]) for role, module in ends]
+                        str(PERIOD_NS / NS), '--executor', node_executor(module), *(['--wrench'] if wrench else [])])
+                for role, module in ends]
     from robot_control.tools import demo
     params = os.path.join(ROOT, 'config', f'{kind}.yaml')
     profile = demo.realism_profile(kind, realism)
@@ -264,13 +280,14 @@ class Session:
     def __exit__(self, *exc):
         self.close()
 
-    def run(self, kind, mode, measure, experiment=None, label=None, realism='ideal'):
+    def run(self, kind, mode, measure, experiment=None, label=None, realism='ideal', wrench=False):
         """Start the two processes of `kind` (with the parameters of demo experiment `experiment`, the bridge on
-        the profile of `realism` and on the engine RUN_ENGINES names for `label`, else on its default), wait for
-        the loop to answer, return measure(observer, procs); logs in <logdir>/<label or kind>_<mode>/."""
+        the profile of `realism` and on the engine RUN_ENGINES names for `label`, else on its default; a bare
+        exchange with ft_sensor/wrench when `wrench`), wait for the loop to answer, return measure(observer,
+        procs); logs in <logdir>/<label or kind>_<mode>/."""
         procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}'))
         try:
-            for name, argv in node_commands(kind, mode, experiment, realism, RUN_ENGINES.get(label)):
+            for name, argv in node_commands(kind, mode, experiment, realism, RUN_ENGINES.get(label), wrench):
                 procs.start(name, argv)
             self.observer.drain()
             self.observer.wait_for('robot_joint_commands', procs)
@@ -443,25 +460,31 @@ def missed_vs_floor(missed, periods, floor_missed, floor_periods):
 
 
 def bench_realtime(plan, env, log, logdir):
-    """B3 metrics per run of REALTIME_RUNS, each run preceded by a run of the floor; the floor pooled, each
-    run against it, and the worst of the runs as the headline keys."""
+    """B3 metrics per run of REALTIME_RUNS, each run preceded by a run of the floor with the run's messages (the
+    wrench stream too when its law reads the force); each run against the floors of its messages pooled, and the
+    worst of the runs as the headline keys."""
     per, floors = {}, {}
+    wrench = {key: reads_wrench(scenario, experiment) for key, (scenario, experiment) in REALTIME_RUNS.items()}
     with Session(env, logdir) as session:
         for key, (scenario, experiment) in REALTIME_RUNS.items():
-            floors[key] = session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}')
+            floors[key] = session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}',
+                                      wrench=wrench[key])
             log('  floor: ' + ', '.join(f'{k} {v:.4g}' for k, v in floors[key].items()))
             per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key,
                                    realism=REALISM.get(key, 'ideal'))
             log(f'  {key}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[key].items()))
         warn_killed(session.killed, log)
-    return realtime_results(per, floors)
+    return realtime_results(per, floors, wrench)
 
 
-def realtime_results(per, floors):
+def realtime_results(per, floors, wrench=None):
     """B3's keys from the metrics of each run and of the floor before it (`per`, `floors`: run ->
-    realtime_metrics); each run is held against the floor's runs pooled."""
+    realtime_metrics); each run is held against the floors pooled that carried its messages (`wrench`: run ->
+    whether its loop carries ft_sensor/wrench; None: no run does); the realtime_floor_* keys pool every floor."""
+    wrench = wrench or {}
     floor = pooled(list(floors.values()))
-    vs_floor = {s: missed_vs_floor(m['missed'], m['periods'], floor['missed'], floor['periods'])
+    like = {s: pooled([m for k, m in floors.items() if wrench.get(k, False) == wrench.get(s, False)]) for s in per}
+    vs_floor = {s: missed_vs_floor(m['missed'], m['periods'], like[s]['missed'], like[s]['periods'])
                 for s, m in per.items()}
     out = {'realtime_missed_vs_floor': max(vs_floor.values()),
            'realtime_1khz_deadline_hit_ratio': min(m['hit_ratio'] for m in per.values()),
@@ -475,6 +498,9 @@ def realtime_results(per, floors):
     for s, m in per.items():
         out.update({f'realtime_missed_vs_floor_{s}': vs_floor[s], f'realtime_missed_periods_{s}': m['missed'],
                     f'realtime_periods_{s}': m['periods'], f'realtime_floor_missed_periods_{s}': floors[s]['missed'],
+                    f'realtime_pooled_floor_missed_periods_{s}': like[s]['missed'],
+                    f'realtime_pooled_floor_periods_{s}': like[s]['periods'],
+                    f'realtime_floor_wrench_{s}': float(wrench.get(s, False)),
                     f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
                     f'realtime_latency_p50_ms_{s}': m['latency_p50_ms'],
                     f'realtime_latency_p99_ms_{s}': m['latency_p99_ms'], f'realtime_rtf_{s}': m['rtf']})

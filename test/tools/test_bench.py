@@ -12,6 +12,7 @@ import math
 import os
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -41,6 +42,7 @@ KEYS = (
     *(f'realtime_{metric}_{run}' for run in ('polar', 'iiwa', 'iiwa_hybrid', 'iiwa_impedance', 'iiwa_typical',
                                               'iiwa_mujoco')
       for metric in ('missed_vs_floor', 'missed_periods', 'periods', 'floor_missed_periods',
+                     'pooled_floor_missed_periods', 'pooled_floor_periods', 'floor_wrench',
                      '1khz_deadline_hit_ratio', 'latency_p99_ms', 'rtf')),
     'sim_steps_per_s_iiwa', 'sim_steps_per_s_iiwa_mujoco', 'sim_steps_mujoco_vs_pybullet',
     'js7_decode_us_cdr_median', 'js7_decode_us_rclpy_median',
@@ -275,6 +277,59 @@ def test_realtime_verdict_holds_each_run_to_the_pooled_floor():
     assert bench.summary(out)[-1].startswith('Targets MISSED: realtime_missed_vs_floor = 1.55 (<= 1.5), ')
     busy = realtime_results(per, {**floors, 'iiwa_hybrid': _metrics(500, 60)})      # floor: 80 of 2000 missed
     assert bench.summary(busy)[-1].startswith('Caution: the floor of B3 (no physics, no law) answered only 96.0 %')
+
+
+def test_each_run_is_held_to_the_floors_of_its_own_messages():
+    """A run whose loop carries the wrench stream is held against the floors that carried it too, the others
+    against the rest; the verdict's text names that pool."""
+    from benchmarks import bench
+    from benchmarks.bench_ros import realtime_results
+    floors = {'polar': _metrics(1000, 4), 'iiwa': _metrics(1000, 6), 'iiwa_hybrid': _metrics(1000, 20)}
+    per = {'polar': _metrics(1000, 10), 'iiwa': _metrics(1000, 10), 'iiwa_hybrid': _metrics(1000, 30)}
+    out = realtime_results(per, floors, {'iiwa_hybrid': True})
+    assert out['realtime_missed_vs_floor_iiwa'] == pytest.approx(2.0)          # 10 against (4 + 6) / 2
+    assert out['realtime_missed_vs_floor_iiwa_hybrid'] == pytest.approx(1.5)   # 30 against its own 20
+    assert (out['realtime_pooled_floor_missed_periods_polar'], out['realtime_pooled_floor_periods_polar']) == (10, 2000)
+    assert out['realtime_floor_wrench_iiwa_hybrid'] == 1.0 and out['realtime_floor_wrench_iiwa'] == 0.0
+    assert (out['realtime_floor_missed_periods'], out['realtime_floor_periods']) == (30, 3000)   # every floor
+    text = bench.verdict('realtime_missed_vs_floor_iiwa_hybrid', out['realtime_missed_vs_floor_iiwa_hybrid'], out)
+    assert text == 'met (<= 1.5): 30 of 1000 periods missed, floor 20 of 1000'
+    assert realtime_results(per, floors)['realtime_missed_vs_floor_iiwa_hybrid'] == pytest.approx(30 / (30 / 3))
+
+
+def test_the_floor_carries_the_wrench_stream_of_a_run_whose_law_reads_the_force():
+    from benchmarks import bench_ros
+    assert bench_ros.reads_wrench('iiwa', 'iiwa_hybrid_line')
+    assert not bench_ros.reads_wrench('iiwa', None) and not bench_ros.reads_wrench('iiwa', 'impedance_push')
+    for wrench in (False, True):
+        for name, argv in bench_ros.node_commands('floor', 'realtime', wrench=wrench):
+            assert ('--wrench' in argv) == wrench, (name, argv)
+
+
+def test_floor_exchange_with_the_wrench_stream(tmp_path):
+    """tick --wrench publishes a WrenchStamped stamped like each state, and echo --wrench subscribes to it."""
+    from geometry_msgs.msg import WrenchStamped
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from benchmarks import bench_ros
+    from robot_control.tools.taps import Tap
+
+    def measure(observer, procs):
+        tap = Tap(observer.node, {'ft_sensor/wrench': WrenchStamped},
+                  QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+        wrenches, states, deadline = [], [], time.monotonic() + 60.0
+        while len(set(wrenches) & set(states)) < 50:
+            assert time.monotonic() < deadline, f'{len(wrenches)} wrenches, {len(states)} states in 60 s'
+            procs.check_alive()
+            time.sleep(bench_ros.POLL_S)
+            states += [int(row[0]) for row in observer.take('joint_states')]
+            wrenches += [bench_ros.header_stamp_ns(cdr) for cdr, _, _ in tap.pop('ft_sensor/wrench')]
+        return observer.node.count_subscribers('ft_sensor/wrench'), wrenches, states
+
+    env = bench_ros.ros_env(int(os.environ['ROS_DOMAIN_ID']))
+    with bench_ros.Session(env, str(tmp_path)) as session:
+        subscribers, wrenches, states = session.run('floor', 'realtime', measure, label='floor', wrench=True)
+    assert subscribers == 2                                 # the echo's and this test's
+    assert set(wrenches) & set(states) and all(stamp % bench_ros.PERIOD_NS == 0 for stamp in wrenches)
 
 
 def test_floor_exchange_runs_and_reports_its_counts(tmp_path):
