@@ -25,11 +25,12 @@ profile), from the samples of the whole run:
 - real-time factor = simulated time advance / publication time advance of the states.
 The floor of B3: the same figures, counted the same way by the same observer, of the bare exchange
 (benchmarks.bench_pingpong tick / echo: the bridge's pacing, messages, QoS and executors, no
-physics, no law), run once before each run of REALTIME_RUNS with that run's messages: states and
-commands, and ft_sensor/wrench too before a run whose law reads the measured force (reads_wrench: the
-hybrid run), since each message costs both processes a wake-up. The floors of the same messages are
-pooled (missed periods and periods summed); each run's missed periods are held against them over as many
-periods (missed_vs_floor).
+physics, no law), run with each run of REALTIME_RUNS with that run's messages: states and commands,
+and ft_sensor/wrench too for a run whose law reads the measured force (reads_wrench: the hybrid run),
+since each message costs both processes a wake-up. A run is measured in rounds, each the floor then the
+run (plan.realtime_rounds, realtime_s / rounds each), so that both see the load the shared machine has in
+the same minute; the rounds are pooled (missed periods and periods summed, pooled()), and each run's missed
+periods are held against its floor's over as many periods (missed_vs_floor).
 Headline B3 keys are the worst of the runs; per-run keys carry _polar, _iiwa, _iiwa_hybrid, _iiwa_impedance,
 _iiwa_typical (computed torque on the iiwa's typical profile), _iiwa_joint_impedance_typical (joint impedance, its
 integral and friction compensation on that profile: the demo's iiwa_real_move), _iiwa_mujoco.
@@ -280,12 +281,12 @@ class Session:
     def __exit__(self, *exc):
         self.close()
 
-    def run(self, kind, mode, measure, experiment=None, label=None, realism='ideal', wrench=False):
+    def run(self, kind, mode, measure, experiment=None, label=None, realism='ideal', wrench=False, part=''):
         """Start the two processes of `kind` (with the parameters of demo experiment `experiment`, the bridge on
         the profile of `realism` and on the engine RUN_ENGINES names for `label`, else on its default; a bare
         exchange with ft_sensor/wrench when `wrench`), wait for the loop to answer, return measure(observer,
-        procs); logs in <logdir>/<label or kind>_<mode>/."""
-        procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}'))
+        procs); logs in <logdir>/<label or kind>_<mode><part>/."""
+        procs = Children(self.env, os.path.join(self.logdir, f'{label or kind}_{mode}{part}'))
         try:
             for name, argv in node_commands(kind, mode, experiment, realism, RUN_ENGINES.get(label), wrench):
                 procs.start(name, argv)
@@ -422,17 +423,18 @@ def _wait_for_loop(observer, timeout_s=30.0):
     raise RuntimeError(f'realtime: no {" and no ".join(sorted(set(observer.TOPICS) - seen))} within {timeout_s:g} s')
 
 
-def realtime_run(plan, periods=None, timeout_s=START_TIMEOUT_S):
-    """measure() -> realtime_metrics of the running loop after plan.dds_warmup_s: over plan.realtime_s of
-    wall time, or (`periods` given) until that many control periods were observed (RuntimeError when they
-    were not within timeout_s)."""
+def realtime_run(plan, periods=None, timeout_s=START_TIMEOUT_S, seconds=None):
+    """measure() -> realtime_metrics of the running loop after plan.dds_warmup_s: over `seconds` (None:
+    plan.realtime_s) of wall time, or (`periods` given) until that many control periods were observed
+    (RuntimeError when they were not within timeout_s)."""
+    seconds = plan.realtime_s if seconds is None else seconds
     def measure(observer, procs):
         _wait_for_loop(observer)            # measure the running loop, not its start-up
         time.sleep(plan.dds_warmup_s)
         observer.drain()
         states, commands, seen = [], [], 0
         start = time.monotonic()
-        while (time.monotonic() - start < plan.realtime_s) if periods is None else seen <= periods:
+        while (time.monotonic() - start < seconds) if periods is None else seen <= periods:
             if time.monotonic() - start > timeout_s:
                 raise RuntimeError(f'realtime: {seen} of {periods} periods within {timeout_s:g} s')
             time.sleep(POLL_S)
@@ -460,31 +462,31 @@ def missed_vs_floor(missed, periods, floor_missed, floor_periods):
 
 
 def bench_realtime(plan, env, log, logdir):
-    """B3 metrics per run of REALTIME_RUNS, each run preceded by a run of the floor with the run's messages (the
-    wrench stream too when its law reads the force); each run against the floors of its messages pooled, and the
-    worst of the runs as the headline keys."""
-    per, floors = {}, {}
-    wrench = {key: reads_wrench(scenario, experiment) for key, (scenario, experiment) in REALTIME_RUNS.items()}
+    """B3 metrics per run of REALTIME_RUNS: plan.realtime_rounds rounds, each the floor with the run's messages
+    (the wrench stream too when its law reads the force) then the run, each for realtime_s / rounds; a run's
+    rounds pooled are held against its floor's rounds pooled, and the worst of the runs are the headline keys."""
+    per, floors, seconds = {}, {}, plan.realtime_s / plan.realtime_rounds
     with Session(env, logdir) as session:
         for key, (scenario, experiment) in REALTIME_RUNS.items():
-            floors[key] = session.run('floor', 'realtime', realtime_run(plan), label=f'floor_before_{key}',
-                                      wrench=wrench[key])
-            log('  floor: ' + ', '.join(f'{k} {v:.4g}' for k, v in floors[key].items()))
-            per[key] = session.run(scenario, 'realtime', realtime_run(plan), experiment, label=key,
-                                   realism=REALISM.get(key, 'ideal'))
+            wrench, runs, bare = reads_wrench(scenario, experiment), [], []
+            for r in range(plan.realtime_rounds):
+                bare.append(session.run('floor', 'realtime', realtime_run(plan, seconds=seconds),
+                                        label=f'floor_before_{key}', wrench=wrench, part=f'_{r}'))
+                runs.append(session.run(scenario, 'realtime', realtime_run(plan, seconds=seconds), experiment,
+                                        label=key, realism=REALISM.get(key, 'ideal'), part=f'_{r}'))
+            floors[key], per[key] = pooled(bare), pooled(runs)
+            log(f'  floor ({plan.realtime_rounds} rounds{", with the wrench" if wrench else ""}): '
+                + ', '.join(f'{k} {v:.4g}' for k, v in floors[key].items()))
             log(f'  {key}: ' + ', '.join(f'{k} {v:.4g}' for k, v in per[key].items()))
         warn_killed(session.killed, log)
-    return realtime_results(per, floors, wrench)
+    return realtime_results(per, floors)
 
 
-def realtime_results(per, floors, wrench=None):
-    """B3's keys from the metrics of each run and of the floor before it (`per`, `floors`: run ->
-    realtime_metrics); each run is held against the floors pooled that carried its messages (`wrench`: run ->
-    whether its loop carries ft_sensor/wrench; None: no run does); the realtime_floor_* keys pool every floor."""
-    wrench = wrench or {}
+def realtime_results(per, floors):
+    """B3's keys from the metrics of each run and of its floor (`per`, `floors`: run -> realtime_metrics); each
+    run is held against its own floor; the realtime_floor_* keys pool every floor."""
     floor = pooled(list(floors.values()))
-    like = {s: pooled([m for k, m in floors.items() if wrench.get(k, False) == wrench.get(s, False)]) for s in per}
-    vs_floor = {s: missed_vs_floor(m['missed'], m['periods'], like[s]['missed'], like[s]['periods'])
+    vs_floor = {s: missed_vs_floor(m['missed'], m['periods'], floors[s]['missed'], floors[s]['periods'])
                 for s, m in per.items()}
     out = {'realtime_missed_vs_floor': max(vs_floor.values()),
            'realtime_1khz_deadline_hit_ratio': min(m['hit_ratio'] for m in per.values()),
@@ -498,9 +500,7 @@ def realtime_results(per, floors, wrench=None):
     for s, m in per.items():
         out.update({f'realtime_missed_vs_floor_{s}': vs_floor[s], f'realtime_missed_periods_{s}': m['missed'],
                     f'realtime_periods_{s}': m['periods'], f'realtime_floor_missed_periods_{s}': floors[s]['missed'],
-                    f'realtime_pooled_floor_missed_periods_{s}': like[s]['missed'],
-                    f'realtime_pooled_floor_periods_{s}': like[s]['periods'],
-                    f'realtime_floor_wrench_{s}': float(wrench.get(s, False)),
+                    f'realtime_floor_periods_{s}': floors[s]['periods'],
                     f'realtime_1khz_deadline_hit_ratio_{s}': m['hit_ratio'],
                     f'realtime_latency_p50_ms_{s}': m['latency_p50_ms'],
                     f'realtime_latency_p99_ms_{s}': m['latency_p99_ms'], f'realtime_rtf_{s}': m['rtf']})
