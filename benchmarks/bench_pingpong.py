@@ -20,7 +20,7 @@ state stamped k * period on `joint_states`; it reads the answers on `robot_joint
 their efforts back as the state's efforts. `echo` answers each state with a command of efforts carrying
 the state's stamp. Both write and read the messages as serialized bytes with robot_control.ros.cdr, as
 the bridge and the controller do, with the same topics and QoS. With `--wrench` both also carry the force
-stream of a law that reads the measured force (hybrid, impedance): `tick` publishes a
+stream of a law that reads the measured force (hybrid control): `tick` publishes a
 geometry_msgs/WrenchStamped (zeros) on `ft_sensor/wrench`, stamped like the state and published just before
 it, as the bridge does; `echo` subscribes to it and decodes each one, as the controller does.
 """
