@@ -87,7 +87,8 @@ def _watchdog(name, core, watchdog, age, counters):
     else:
         level, message = 'OK', 'receiving joint_states'
     return (f'{name}: joint_states watchdog', level, message,
-            [('state_timeout_s', watchdog.timeout), ('trips', watchdog.trips), ('restarts', core.restarts),
+            [('state_timeout_s', watchdog.timeout), ('trips', watchdog.trips), ('late_checks', watchdog.late_checks),
+             ('restarts', core.restarts),
              ('commands_sent', counters.commands_sent)])
 
 

@@ -3,8 +3,19 @@
 The age of the last state is taken on two clocks, the node's (simulated time when use_sim_time)
 and the steady clock, and the larger counts: a stopped simulator also stops /clock, and then only
 the steady clock shows that time passes. Times are integer ns.
+
+The watchdog is checked every `period` s of the steady clock (timeout / CHECKS_PER_TIMEOUT). A check
+that comes more than two periods after the one before it finds its own process held up (by the
+machine's load, not by the robot): states that came in the meantime wait in the queue behind the
+check, unread, so that check does not trip; the next one, a period on, decides. A silent robot is
+then stopped after at most timeout + 2 periods instead of timeout + 1.
 """
 from robot_control import units
+
+#: checks per timeout: the check period is timeout / CHECKS_PER_TIMEOUT
+CHECKS_PER_TIMEOUT = 5
+#: smallest check period, s
+MIN_PERIOD = 0.001
 
 
 class StateWatchdog:
@@ -14,7 +25,13 @@ class StateWatchdog:
         self.timeout = timeout
         self.tripped = False
         self.trips = 0
-        self._node_ns = self._steady_ns = None
+        self.late_checks = 0        # checks that found their process held up (and so did not trip)
+        self._node_ns = self._steady_ns = self._checked_ns = None
+
+    @property
+    def period(self):
+        """The check period, s: timeout / CHECKS_PER_TIMEOUT, at least MIN_PERIOD."""
+        return max(self.timeout / CHECKS_PER_TIMEOUT, MIN_PERIOD)
 
     def fresh(self, node_ns, steady_ns):
         """A state was answered at these clock readings; True when that ends a trip (a recovery)."""
@@ -29,9 +46,14 @@ class StateWatchdog:
         return units.seconds(max(node_ns - self._node_ns, steady_ns - self._steady_ns))
 
     def check(self, node_ns, steady_ns):
-        """True when this check trips the watchdog (the age passed timeout and it was not tripped yet)."""
+        """True when this check trips the watchdog: the age passed timeout, it was not tripped yet, and
+        this check came within two periods of the one before it (see the module docstring)."""
+        last, self._checked_ns = self._checked_ns, steady_ns
         age = self.age(node_ns, steady_ns)
         if self.tripped or age is None or age <= self.timeout:
+            return False
+        if last is not None and steady_ns - last > 2 * units.to_ns(self.period):
+            self.late_checks += 1
             return False
         self.tripped = True
         self.trips += 1

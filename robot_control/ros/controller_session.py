@@ -33,8 +33,6 @@ from robot_control.ros.reference_inputs import ReferenceInputs
 from robot_control.ros.qos import CONTROL_PUB_QOS, CONTROL_QOS, DIAGNOSTICS_QOS, REFERENCE_PUB_QOS, REFERENCE_QOS
 from robot_control.core.throttle import Throttle
 
-#: smallest watchdog check period, s
-MIN_WATCHDOG_PERIOD = 0.001
 #: throttle of the warnings about rejected input, s
 WARN_THROTTLE = 1.0
 
@@ -254,8 +252,7 @@ class ControllerSession:
             self._node.destroy_timer(self._watchdog_timer)
         self.controller.set_state_timeout(timeout)
         # on the steady clock: with use_sim_time a dead simulator also stops /clock
-        self._watchdog_timer = self._node.create_timer(max(timeout / 5.0, MIN_WATCHDOG_PERIOD), self._check_watchdog,
-                                                 clock=self._steady)
+        self._watchdog_timer = self._node.create_timer(self.watchdog.period, self._check_watchdog, clock=self._steady)
 
     def _check_watchdog(self):
         now, steady = self._node.get_clock().now().nanoseconds, time.monotonic_ns()

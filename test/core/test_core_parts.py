@@ -119,6 +119,25 @@ def test_the_watchdog_trips_on_the_larger_age_of_the_two_clocks_and_recovers():
     assert dog.fresh(1001 * MS, 2001 * MS) and not dog.tripped   # recovery reported once
 
 
+def test_a_check_that_comes_late_finds_its_process_held_up_and_leaves_the_trip_to_the_next():
+    held, silent = StateWatchdog(0.5), StateWatchdog(0.5)
+    assert held.period == pytest.approx(0.1)
+    for dog in (held, silent):
+        dog.fresh(0, 0)
+        assert not dog.check(0, 100 * MS)
+        # the process was held up for 0.6 s: a state may wait unread behind this check
+        assert not dog.check(0, 700 * MS) and not dog.tripped and dog.late_checks == 1
+    assert not held.fresh(0, 701 * MS)                          # one did: read right after, no trip
+    assert not held.check(0, 800 * MS) and held.trips == 0
+    assert silent.check(0, 800 * MS) and silent.trips == 1      # none did: the next check, on time, trips
+    assert silent.late_checks == 1
+
+
+def test_the_check_period_is_a_fifth_of_the_timeout_and_at_least_a_millisecond():
+    assert StateWatchdog(2.0).period == pytest.approx(0.4)
+    assert StateWatchdog(0.001).period == pytest.approx(0.001)
+
+
 # -- pairing states with their wrenches -------------------------------------------------------------------
 def test_a_paired_state_waits_for_its_wrench_and_goes_when_it_comes():
     p = WrenchPairing()
