@@ -71,7 +71,9 @@ def measure_task(cfg, q, qd, f_meas):
         if f_meas is None:
             raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
         f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
-    return x, xd, J, Jdot_qd, f + task.force_lead_time * fdot, fdot
+    if task.force_lead_time:
+        f = f + task.force_lead_time * fdot
+    return x, xd, J, Jdot_qd, f, fdot
 
 
 def contact_guard(task):

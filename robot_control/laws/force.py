@@ -38,8 +38,11 @@ def force_1dof(m, f, fdot, f_d, fd_d, fdd_d, k_e, gains, int_Ef=None):
 def _spring_force(x, xd, x_e, k_e, sign):
     """f = k_e (x - x_e), fdot = k_e xd where in contact (sign 0: everywhere; +1 / -1: where
     sign (x - x_e) > 0), 0 elsewhere; checked (k,) arrays."""
+    f, fdot = k_e * (x - x_e), k_e * xd
+    if np.isscalar(sign) and sign == 0.0:        # the bilateral spring: in contact everywhere
+        return f, fdot
     contact = (sign == 0.0) | (sign * (x - x_e) > 0.0)
-    return np.where(contact, k_e * (x - x_e), 0.0), np.where(contact, k_e * xd, 0.0)
+    return np.where(contact, f, 0.0), np.where(contact, fdot, 0.0)
 
 
 def spring_force(x, xd, x_e, k_e, sign=0.0):
