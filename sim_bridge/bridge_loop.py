@@ -243,10 +243,15 @@ class BridgeLoop(abc.ABC):
         self._advance(self._substeps)
         self.ticks += 1
         self._publish(in_loop=True)
-        self._driver.prepare()                # off the command's path: the next tick's state terms and noise
+        self._between_ticks()
         if self._pause_at_ns is not None and self.world.t_ns >= self._pause_at_ns:
             self._pause_at_ns = None
             self.pause(True, f' (pause_at = {self.cfg.pause_at:g} s)')
+
+    def _between_ticks(self):
+        """Once a state is published: form what the next tick needs of the state alone (Driver.prepare). Lockstep
+        does it at once, while the controller computes its answer."""
+        self._driver.prepare()
 
     def _publish(self, in_loop=False):
         """Publish the measured state; /clock on the tick that crosses a clock_period (every tick if 0)."""
@@ -476,6 +481,12 @@ class RealtimeLoop(BridgeLoop):
         if reason is None and ok:
             self._deadline.command(stamp_ns, self._clock())
         self._command(reason, ok)
+        if stamp_ns == self.measured.t_ns:
+            self._driver.prepare()
+
+    def _between_ticks(self):
+        """Nothing at once: the next tick's terms are formed when the answer to this state is in (on_joint_command;
+        else by the tick itself), so that the bridge leaves the CPU to the controller while it computes."""
 
     def on_array_command(self, values):
         """Held until the next valid one."""

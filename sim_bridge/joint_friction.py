@@ -133,15 +133,34 @@ def inertia(friction, mass):
     return mass + np.diag(friction.armature)
 
 
+class StepPlan:
+    """One step of the equations above, formed before its torque is known: `friction` a JointFriction, inertia
+    A = M(q) + diag(I_a) (n, n) (`inertia()`), qd (n,) at the step's start, r0 (n,) the part of r known ahead
+    (tau_env - b qd - h + tau_c), dt s; `start` the last step's active sets or None (coulomb_sets). W = dt A^-1
+    and the start's ActiveSets are formed here; `solve(x)` adds the torque x (n,) to r = r0 + x and finishes
+    the step: what runs once the command is in."""
+
+    def __init__(self, friction, inertia, qd, r0, dt, start=None):
+        self.friction, self.qd, self.dt = friction, qd, dt
+        self.W = dt * np.linalg.inv(inertia)
+        self.v0 = qd + self.W @ r0                      # qd_free = dt A^-1 (A qd / dt + r) less W x
+        self.sets = None if start is None or not friction.coulomb.any() else ActiveSets(self.W, friction.coulomb, *start)
+
+    def solve(self, x=None):
+        """(f (n,), qdd (n,), tau_loss (n,), sets) for r = r0 + x (x (n,) N m or N, None: 0): f the implicit
+        Coulomb torque, qdd = (qd+ - qd) / dt the step's acceleration, tau_loss = b qd - f + I_a qdd what friction
+        and armature take from the motor torque, sets the solver's active sets (coulomb_sets)."""
+        fr = self.friction
+        v_free = self.v0 if x is None else self.v0 + self.W @ x
+        f, v, sets = solve_sets(self.W, v_free, fr.coulomb, self.sets)
+        qdd = (v - self.qd) / self.dt
+        return f, qdd, fr.viscous * self.qd - f + fr.armature * qdd, sets
+
+
 def step_loss(friction, inertia, qd, r, dt, start=None):
-    """(f (n,), qdd (n,), tau_loss (n,), sets) of one step of the equations above: `friction` a JointFriction,
-    inertia A = M(q) + diag(I_a) (n, n) (`inertia()`), qd (n,) at the step's start, r (n,) = tau + tau_env - b qd
-    - h (+ tau_c), dt s; `start` the last step's active sets or None (coulomb_sets). f the implicit Coulomb
-    torque (coulomb_sets with b = A qd / dt + r), qdd = (qd+ - qd) / dt the step's acceleration, tau_loss =
-    b qd - f + I_a qdd what friction and armature take from the motor torque, sets the solver's active sets."""
-    f, v, sets = coulomb_sets(inertia, inertia @ qd / dt + r, dt, friction.coulomb, start)
-    qdd = (v - qd) / dt
-    return f, qdd, friction.viscous * qd - f + friction.armature * qdd, sets
+    """(f (n,), qdd (n,), tau_loss (n,), sets) of one step of the equations above with r (n,) = tau + tau_env
+    - b qd - h (+ tau_c) known at once: StepPlan(friction, inertia, qd, r, dt, start).solve()."""
+    return StepPlan(friction, inertia, qd, r, dt, start).solve()
 
 
 def coulomb_torque(A, b, dt, fc):
@@ -150,70 +169,93 @@ def coulomb_torque(A, b, dt, fc):
     A (n, n) the inertia M + diag(I_a), kg m^2 or kg; b = A qd / dt + r (n,), N m or N (r: every torque
     but Coulomb friction, less h); dt s; fc (n,) >= 0 the breakaway torques. Solves
         A (qd+ - qd) / dt = r + f,   f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
-    (f_i = 0 where fc_i = 0) by active sets. For stuck joints S (qd+_S = 0) and slipping joints N
-    (f_N = -fc_N s_N, s_N their direction):
-        qd+_N = dt A_NN^-1 (b + f)_N,   f_S = A_SN qd+_N / dt - b_S.
-    First guess, from the velocities without friction qd_free = dt A^-1 b: a joint is stuck when its own
-    friction alone could stop it, A_ii |qd_free,i| / dt <= fc_i, else it slips along qd_free,i. Then a
-    stuck joint needing more than fc_i breaks away (slips against its holding torque) and a slipping joint
-    whose velocity would reverse sticks: all such joints at once, and the first of them alone (least
-    index, as Murty's pivoting) once a guess repeats; until consistent (about two passes on average on the
-    iiwa holding still), `_coordinate_descent` if that does not end."""
+    (f_i = 0 where fc_i = 0), written with W = dt A^-1 and qd_free = W b (the velocities without friction):
+        qd+ = qd_free + W f,
+    by active sets (solve_sets)."""
     f, v, _ = coulomb_sets(A, b, dt, fc)
     return f, v
 
 
 def coulomb_sets(A, b, dt, fc, start=None):
     """(f, qd+, sets): coulomb_torque, its active sets starting from `start` instead of the first guess when given,
-    and the consistent sets it ended with (None after the fallback). sets, start: (stuck (n,) bool, the
-    slipping joints' directions (n,) of -1, 0, 1). With A positive definite the solution is unique: the start
-    changes the passes, not f and qd+. The last step's sets hold on the next while the arm holds still or keeps
-    sliding the same way: one pass, one solve (the stepping World's start)."""
+    and the consistent sets it ended with (None after the fallback): solve_sets(dt A^-1, dt A^-1 b, fc, start)."""
+    W = dt * np.linalg.inv(A)
+    return solve_sets(W, W @ b, fc, start)
+
+
+def solve_sets(W, v_free, fc, start=None):
+    """(f, qd+, sets) of qd+ = v_free + W f under the Coulomb conditions (coulomb_torque), by active sets: W =
+    dt A^-1 (n, n), v_free (n,) the velocities without friction, fc (n,) >= 0; `start` None, the sets (stuck
+    (n,) bool, the slipping joints' directions (n,) of -1, 0, 1) or their ActiveSets for this W. For stuck joints
+    S (qd+_S = 0) and slipping joints N (f_N = -fc_N s_N):
+        f_S = -W_SS^-1 (v_free + W_:N f_N)_S,   qd+ = v_free + W f.
+    First guess: a joint is stuck when its own friction alone could stop it with the others free,
+    |v_free,i| <= W_ii fc_i, else it slips along v_free,i. Then a stuck joint needing more than fc_i breaks
+    away (slips against its holding torque) and a slipping joint whose velocity would reverse sticks: all such
+    joints at once, and the first of them alone (least index, as Murty's pivoting) once a guess repeats;
+    until consistent (one pass while the arm holds still or keeps sliding the same way, the stepping World
+    starting from the last step's sets), `_coordinate_descent` if that does not end. With A positive definite
+    the solution is unique: the start changes the passes, not f and qd+."""
     has = fc > 0.0
     if not np.count_nonzero(has):
-        return np.zeros(len(fc)), dt * np.linalg.solve(A, b), None
-    if start is None:
-        free = np.linalg.solve(A, b)                   # qd_free / dt
-        stuck, sign = has & (np.abs(free) * A.diagonal() <= fc), np.sign(free)
+        return np.zeros(len(fc)), v_free, None
+    if isinstance(start, ActiveSets):
+        sets = start
+    elif start is None:
+        sets = ActiveSets(W, fc, has & (np.abs(v_free) <= W.diagonal() * fc), np.sign(v_free))
     else:
-        stuck, sign = start
+        sets = ActiveSets(W, fc, *start)
     seen, least_index = set(), False
     for _ in range(4 * len(fc) + 4):
-        f, v, wrong = _given(A, b, dt, fc, stuck, sign)
-        if not np.count_nonzero(wrong):                # at once on most steps
-            return f, v, (stuck, sign)
+        f, v, wrong = sets.solve(v_free)
+        if wrong is None:                               # at once on most steps
+            return f, v, (sets.stuck, sets.sign)
+        stuck, sign = sets.stuck, sets.sign
         key = (stuck.tobytes(), sign.tobytes())
         least_index = least_index or key in seen
         seen.add(key)
         if least_index:
             wrong[np.argmax(wrong) + 1:] = False
-        sign = np.where(stuck & wrong, -np.sign(f), sign)
-        stuck = stuck ^ wrong
-    f = _coordinate_descent(dt * np.linalg.inv(A), dt * np.linalg.solve(A, b), fc)
-    stuck = has & (np.abs(f) < fc * (1.0 - 1e-9))
-    f_exact, v, wrong = _given(A, b, dt, fc, stuck, -np.sign(f))     # its sets, solved exactly
-    return (f_exact, v, None) if not wrong.any() else (f, dt * np.linalg.solve(A, b + f), None)
+        sets = ActiveSets(W, fc, stuck ^ wrong, np.where(stuck & wrong, -np.sign(f), sign))
+    f = _coordinate_descent(W, v_free, fc)
+    f_exact, v, wrong = ActiveSets(W, fc, has & (np.abs(f) < fc * (1.0 - 1e-9)), -np.sign(f)).solve(v_free)
+    return (f_exact, v, None) if wrong is None else (f, v_free + W @ f, None)
 
 
-def _given(A, b, dt, fc, stuck, sign):
-    """(f, qd+, wrong) of coulomb_torque for the stuck joints `stuck` and the slipping joints' directions
-    `sign`; wrong (n,) bool marks the joints whose assumption fails (a stuck joint needing more than
-    fc_i, a slipping one whose velocity would reverse). Every joint slipping, every joint stuck: no sub-block
-    is formed (one solve of A, none)."""
-    n, held = len(fc), np.count_nonzero(stuck)
-    f = -fc * sign                                     # the slipping joints' friction (stuck ones: below)
-    if not held:
-        v = dt * np.linalg.solve(A, b + f)
-    else:
-        v = np.zeros(n)
-        if held < n:
-            slip = np.flatnonzero(~stuck)
-            v[slip] = dt * np.linalg.solve(A[slip[:, None], slip], (b + f)[slip])
-        f = np.where(stuck, A @ v / dt - b, f)
-    wrong = (fc > 0.0) & (v * sign < 0.0)              # a slipping joint reversing (a stuck one has v_i = 0)
-    if held:
-        wrong |= stuck & (np.abs(f) > fc * (1.0 + BREAKAWAY_RTOL))
-    return f, v, wrong
+class ActiveSets:
+    """solve_sets for the stuck joints `stuck` (n,) bool and the slipping joints' directions `sign` (n,), with
+    what depends on W alone formed once: the slipping joints' friction f_N = -fc_N s_N, W f_N and W_SS^-1."""
+
+    def __init__(self, W, fc, stuck, sign):
+        self.stuck, self.sign, self.fc = stuck, sign, fc
+        self.f = np.where(stuck, 0.0, -fc * sign)      # the slipping joints' friction (stuck ones: solve())
+        self.w_f = W @ self.f
+        self.held = np.flatnonzero(stuck)
+        self.slipping = (fc > 0.0) & ~stuck
+        if len(self.held):
+            self.K = np.linalg.inv(W[self.held[:, None], self.held])
+            self.W_S = W[:, self.held]
+            self.limit = fc[self.held] * (1.0 + BREAKAWAY_RTOL)
+
+    def solve(self, v_free):
+        """(f, qd+, wrong) for these sets; wrong (n,) bool marks the joints whose assumption fails (a stuck joint
+        needing more than fc_i, a slipping one whose velocity would reverse), None when none does."""
+        v = v_free + self.w_f
+        held = self.held
+        if not len(held):
+            f = self.f
+        else:
+            f_S = -(self.K @ v[held])
+            v += self.W_S @ f_S
+            v[held] = 0.0
+            f = self.f.copy()
+            f[held] = f_S
+        reversing = self.slipping & (v * self.sign < 0.0)   # a stuck one has v_i = 0
+        if len(held):
+            breaking = np.abs(f_S) > self.limit
+            if np.count_nonzero(breaking):
+                reversing[held[breaking]] = True
+        return f, v, reversing if np.count_nonzero(reversing) else None
 
 
 def _coordinate_descent(W, v_free, fc, sweeps=1000, tol=1e-15):

@@ -28,7 +28,7 @@ class JointPhysics:
         self.exact = friction.exact
         self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
         self._sets = None       # the Coulomb solver's active sets of the last step (coulomb_sets); None: none
-        self._ahead = None      # _state_terms() formed by prepare() for the next step; None: none
+        self._ahead = None      # _step_ahead() formed by prepare() for the next step; None: none
         self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
         for j, b in zip(self._joints, friction.viscous.tolist()):
             p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
@@ -40,28 +40,26 @@ class JointPhysics:
         if braked:
             self._last = self.loss = self._sets = self._ahead = None
             return forces
-        fr = self.friction
-        terms = self._state_terms() if self._ahead is None else self._ahead
+        ahead = self._step_ahead() if self._ahead is None else self._ahead
         self._ahead = None
-        q_all, qd_all, mass, h, qd, damping, constraint, inertia = terms
+        q_all, qd_all, mass, constraint, plan = ahead
         tau = np.array(forces)
-        r = tau - damping - h
-        if cartesian_force is not None:
-            r += self._jacobian(q_all, qd_all).T @ cartesian_force
-        r += constraint
-        f, qdd, self.loss, self._sets = joint_friction.step_loss(fr, inertia, qd, r, self.dt, self._sets)
-        self._last = (mass, qd + self.dt * qdd, constraint)
-        return (tau + f - fr.armature * qdd).tolist()
+        x = tau if cartesian_force is None else tau + self._jacobian(q_all, qd_all).T @ cartesian_force
+        f, qdd, self.loss, self._sets = plan.solve(x)
+        self._last = (mass, plan.qd + self.dt * qdd, constraint)
+        return (tau + f - self.friction.armature * qdd).tolist()
 
     def prepare(self):
-        """Form now the next step's _state_terms() (the state does not change until that step): what the step
-        after the next command then need not do. A step, set() or the brakes discard them."""
-        self._ahead = self._state_terms()
+        """Form now the next step's _step_ahead() (the state does not change until that step): what the step
+        after the next command then need not do (once until that step: a second call does nothing). A step, set()
+        or the brakes discard it."""
+        if self._ahead is None:
+            self._ahead = self._step_ahead()
 
-    def _state_terms(self):
-        """What a step needs of the state alone: (q, qd of every movable joint (lists), M (n, n), h = C qd + g (n,),
-        qd (n,), the viscous torque b qd (n,), the constraint torque assumed tau_c (n,) or 0, A = M + diag(I_a))
-        of the controlled joints."""
+    def _step_ahead(self):
+        """What a step needs of the state alone: (q, qd of every movable joint (lists), M (n, n), the constraint
+        torque assumed tau_c (n,) or 0, the joint_friction.StepPlan with r0 = tau_c - b qd - h, h = C qd + g)
+        of the controlled joints; the torque x = tau + tau_env (+ J^T F) comes with the command."""
         c, body = self._client, self._body
         states = p.getJointStates(body, self._movable, physicsClientId=c)
         q_all = [s[0] for s in states]
@@ -72,7 +70,10 @@ class JointPhysics:
         if self._dof is not None:
             mass, h, qd = mass[self._block], h[self._dof], qd[self._dof]
         constraint = 0.0 if self._last is None else self._constraint(qd)
-        return q_all, qd_all, mass, h, qd, self.friction.viscous * qd, constraint, joint_friction.inertia(self.friction, mass)
+        fr = self.friction
+        plan = joint_friction.StepPlan(fr, joint_friction.inertia(fr, mass), qd, constraint - fr.viscous * qd - h,
+                                       self.dt, self._sets)
+        return q_all, qd_all, mass, constraint, plan
 
     def _constraint(self, qd):
         """tau_c (n,) N m or N: the joint torque of the constraints PyBullet solved in the last step (surface

@@ -309,8 +309,9 @@ class Driver:
         self.step = world.step if self._sensors is None and self._line is None else self._step
 
     def prepare(self):
-        """Between ticks, once a state is published: what the next tick needs that no command changes, formed
-        ahead (World.prepare, Sensors.prepare). The same results."""
+        """Between ticks (lockstep: once a state is published; realtime: once its answer is in): what the next tick
+        needs that no command changes, formed ahead (World.prepare, Sensors.prepare). The same results; a second
+        call before the tick does nothing."""
         self._world.prepare()
         if self._sensors is not None:
             self._sensors.prepare()

@@ -322,8 +322,9 @@ class World:
 
     def prepare(self):
         """Form ahead, between steps, what the next step's joint friction and armature need of the current state
-        alone (JointPhysics.prepare): the bridge calls it once a state is published, so that the step after the
-        next command does less. Same results; nothing to do without Coulomb friction and armature, or braked."""
+        alone (JointPhysics.prepare): the bridge calls it once a state is published (realtime: once its answer is
+        in), so that the step after the next command does less. Same results; nothing to do without Coulomb
+        friction and armature, or braked."""
         if self._joints.exact and self._brake is None:
             self._joints.prepare()
 

@@ -570,6 +570,38 @@ def test_realtime_runs_the_ticks_due_on_the_wall_clock(bridge):
     assert pacing.level == 'WARN' and pacing.message == 'realtime x2.0: 1 overruns (stalls > 0.1 s)'
 
 
+def prepared_ticks(loop):
+    """A list that grows by the World's t_ns at each World.prepare the loop calls."""
+    calls, prepare = [], loop.world.prepare
+
+    def counting():
+        calls.append(loop.world.t_ns)
+        prepare()
+    loop.world.prepare = counting
+    return calls
+
+
+def test_the_next_tick_is_prepared_in_lockstep_once_published_in_realtime_once_answered(bridge):
+    """Lockstep forms the next tick's terms as soon as it publishes a state (the controller computes meanwhile);
+    realtime leaves the CPU to the controller then and forms them once the answer to the latest state is in
+    (an answer to an older state does not), else the tick forms them itself."""
+    loop, node = bridge(mode='lockstep')
+    calls = prepared_ticks(loop)
+    loop.on_joint_command(0, JOINTS, HOLD)
+    assert calls == [MS] and node.states[-1][0] == MS
+    loop, node = bridge(mode='realtime')
+    calls = prepared_ticks(loop)
+    loop.on_joint_command(0, JOINTS, HOLD)
+    assert calls == [0]                                      # the answer to the state of t = 0
+    node.now += MS
+    loop.on_timer()
+    assert loop.ticks == 1 and node.states[-1][0] == MS and calls == [0]
+    loop.on_joint_command(0, JOINTS, HOLD)                   # answers t = 0, not the latest state
+    assert calls == [0]
+    loop.on_joint_command(MS, JOINTS, HOLD)
+    assert calls == [0, MS]
+
+
 def test_realtime_restarts_the_timer_as_it_anchors_so_that_each_call_runs_one_tick(bridge):
     """The pacing timer is restarted at each anchoring of the pacing (start, resume, a new real_time_factor,
     reset), so its calls come whole periods after it: each finds exactly one tick due, even 0.9 period late.
