@@ -1,6 +1,7 @@
 """The command line of the nodes' executables (controller_node, sim_bridge_node): one for every node.
 
-    <prog> [-h] [--executor {events,single}] [--ros-args --params-file FILE -p NAME:=VALUE ...]
+    <prog> [-h] [--executor {events,single}] [--cpu-wakeup-latency US]
+           [--ros-args --params-file FILE -p NAME:=VALUE ...]
 
 The node's own flags are read from the arguments outside --ros-args (rclpy.utilities.remove_ros_args);
 the ROS arguments go to rclpy.init untouched. --help lists the node's parameters, generated from its
@@ -10,9 +11,11 @@ defaults they have when no parameter is set.
 Exit statuses, the same for every node:
     0  stopped by SIGINT or SIGTERM (robot_control.ros.spin stops cleanly on both); --help
     2  a usage error (argparse's status and message) or a bad start-up parameter, reported on
-       stderr as '<prog>: bad parameter <name>: <reason>'
+       stderr as '<prog>: bad parameter <name>: <reason>'; a --cpu-wakeup-latency request the
+       process may not hold, as '<prog>: --cpu-wakeup-latency: <reason>'
 """
 import argparse
+import os
 import sys
 import textwrap
 
@@ -20,7 +23,7 @@ import rclpy.utilities
 
 from robot_control import param_table
 from robot_control.param_table import ParameterError
-from robot_control.ros import spin
+from robot_control.ros import spin, wakeup
 
 #: exit status of a bad start-up parameter: argparse's for a usage error
 BAD_PARAMETER = 2
@@ -48,6 +51,10 @@ class Entry:
         parser.add_argument('--executor', choices=spin.EXECUTORS, default='events',
                             help='rclpy executor: events (EventsExecutor, the fastest; default) or single '
                                  '(SingleThreadedExecutor)')
+        parser.add_argument('--cpu-wakeup-latency', type=_microseconds, metavar='US', default=None,
+                            help='hold a Linux PM QoS request of at most US microseconds of CPU wake-up latency while '
+                                 f'the node runs (0: no idle state but polling; writes {wakeup.PATH}, which needs '
+                                 'root or a udev rule): a realtime loop then does not pay for waking idle CPUs')
         return parser
 
     def epilog(self):
@@ -68,9 +75,31 @@ class Entry:
         """Run the node until SIGINT/SIGTERM; returns the exit status (see the module's docstring)."""
         argv = sys.argv if args is None else list(args)
         opts = self.options(argv)
-        return spin.run_node(argv, self.make_node, opts.executor, startup_errors=(ParameterError,),
-                             on_startup_error=self._refuse)
+        try:
+            request = None if opts.cpu_wakeup_latency is None else wakeup.request(opts.cpu_wakeup_latency)
+        except OSError as exc:
+            print(f'{self.prog}: --cpu-wakeup-latency: cannot hold the request on {wakeup.PATH}: {exc.strerror} '
+                  '(it needs write access: run as root, or give the user write access with a udev rule)',
+                  file=sys.stderr, flush=True)
+            return BAD_PARAMETER
+        try:
+            return spin.run_node(argv, self.make_node, opts.executor, startup_errors=(ParameterError,),
+                                 on_startup_error=self._refuse)
+        finally:
+            if request is not None:
+                os.close(request)             # the kernel drops the request (also if the process dies)
 
     def _refuse(self, exc):
         print(f'{self.prog}: {bad_parameter(exc)}', file=sys.stderr, flush=True)
         return BAD_PARAMETER
+
+
+def _microseconds(text):
+    """--cpu-wakeup-latency's value: a whole number of microseconds >= 0."""
+    try:
+        us = int(text)
+    except ValueError:
+        us = -1
+    if us < 0:
+        raise argparse.ArgumentTypeError(f'expected a whole number of microseconds >= 0, got {text!r}')
+    return us

@@ -38,10 +38,13 @@ def test_a_bad_parameter_exits_2_with_the_same_message_format(module, prog, tabl
 
 
 @pytest.mark.parametrize('module, prog, table', NODES, ids=IDS)
-def test_a_usage_error_exits_2_as_a_bad_parameter_does(module, prog, table):
-    run = _run(module, '--executor', 'turbo')
+@pytest.mark.parametrize('flag, value, message', [('--executor', 'turbo', 'invalid choice'),
+                                                  ('--cpu-wakeup-latency', '-1', 'expected a whole number of '
+                                                   "microseconds >= 0, got '-1'")])
+def test_a_usage_error_exits_2_as_a_bad_parameter_does(module, prog, table, flag, value, message):
+    run = _run(module, flag, value)
     assert run.returncode == 2
-    assert f'{prog}: error: argument --executor: invalid choice' in run.stderr
+    assert f'{prog}: error: argument {flag}: {message}' in run.stderr
 
 
 @pytest.mark.parametrize('module, prog, table', NODES, ids=IDS)
