@@ -15,6 +15,10 @@ Arguments (`ros2 launch robot_control scenario.launch.py --show-args` lists them
   gui           the bridge's PyBullet GUI, true | false (default; the GUI needs a display)
   engine        the bridge's physics engine, pybullet (default) | mujoco
   use_sim_time  the controller runs on the bridge's /clock, true (default) | false
+  cpu_wakeup_latency
+                both nodes hold a CPU wake-up latency request of this many microseconds while they run
+                (their --cpu-wakeup-latency: 0 keeps idle CPUs from sleeping, for real time; needs root or
+                a udev rule giving write access to /dev/cpu_dma_latency); '' (default) = none
 
 Both nodes read the same files in the same order (the launch logs which), whose sections
 `/**/controller` and `/**/sim_bridge` apply in any namespace; the arguments mode, gui, engine and
@@ -57,20 +61,26 @@ def parameter_files(scenario, params_file):
     return files
 
 
+def node_flags(cpu_wakeup_latency):
+    """The command-line flags of both nodes (before --ros-args): --cpu-wakeup-latency US when given (not '')."""
+    return ['--cpu-wakeup-latency', cpu_wakeup_latency] if cpu_wakeup_latency else []
+
+
 def _nodes(context):
     """The two nodes, their parameter files evaluated from the arguments, and a line saying which they read."""
     def arg(name):
         return LaunchConfiguration(name).perform(context)
     files = parameter_files(arg('scenario'), arg('params_file'))
     namespace = arg('namespace')
+    flags = node_flags(arg('cpu_wakeup_latency'))
     return [
         LogInfo(msg=f'sim_bridge and controller read, in this order (a later file wins): {", ".join(files)}'),
         Node(package=PACKAGE, executable='sim_bridge_node', name='sim_bridge', namespace=namespace,
              parameters=[*files, {'mode': arg('mode'), 'gui': arg('gui') == 'true', 'engine': arg('engine')}],
-             remappings=CLOCK_REMAP, output='screen'),
+             arguments=flags, remappings=CLOCK_REMAP, output='screen'),
         Node(package=PACKAGE, executable='controller_node', name='controller', namespace=namespace,
              parameters=[*files, {'use_sim_time': arg('use_sim_time') == 'true'}],
-             remappings=CLOCK_REMAP, output='screen'),
+             arguments=flags, remappings=CLOCK_REMAP, output='screen'),
     ]
 
 
@@ -93,5 +103,8 @@ def generate_launch_description():
                               description="the bridge's physics engine"),
         DeclareLaunchArgument('use_sim_time', default_value='true', choices=BOOLEAN,
                               description="the controller's clock is the bridge's simulated /clock"),
+        DeclareLaunchArgument('cpu_wakeup_latency', default_value='',
+                              description='both nodes hold a CPU wake-up latency request of this many us '
+                                          "(--cpu-wakeup-latency; 0 for real time, needs root); '' = none"),
         OpaqueFunction(function=_nodes),
     ])

@@ -67,10 +67,11 @@ def _nodes():
 
 def test_it_declares_the_documented_arguments_with_their_defaults():
     args = _arguments()
-    assert set(args) == {'scenario', 'params_file', 'mode', 'namespace', 'gui', 'engine', 'use_sim_time'}
+    assert set(args) == {'scenario', 'params_file', 'mode', 'namespace', 'gui', 'engine', 'use_sim_time',
+                         'cpu_wakeup_latency'}
     assert {k: v.get('default_value') for k, v in args.items() if k != 'engine'} == {
         'scenario': '', 'params_file': '', 'mode': 'realtime', 'namespace': '', 'gui': 'false',
-        'use_sim_time': 'true'}
+        'use_sim_time': 'true', 'cpu_wakeup_latency': ''}
 
 
 def test_engine_choices_are_the_bridges_engines_pybullet_the_default():
@@ -219,3 +220,22 @@ def test_a_params_file_after_a_scenario_wins(ros_context, tmp_path):
         assert list(ctrl.core.config.control_law.motion_gains.kp) == [100.0] * 7        # (20 / 2)^2
     finally:
         ctrl.destroy_node()
+
+
+def test_cpu_wakeup_latency_becomes_both_nodes_flag(capsys):
+    """cpu_wakeup_latency:=US gives both nodes --cpu-wakeup-latency US before --ros-args (arguments=flags, from
+    node_flags() compiled alone); '' gives none. The flags as a node's executable reads them: a bad value is its
+    usage error."""
+    [fn] = [n for n in _tree().body if isinstance(n, ast.FunctionDef) and n.name == 'node_flags']
+    namespace = {}
+    exec(compile(ast.Module(body=[fn], type_ignores=[]), LAUNCH_FILE, 'exec'), namespace)
+    flags = namespace['node_flags']
+    assert flags('') == [] and flags('0') == ['--cpu-wakeup-latency', '0']
+    for call in _calls('Node'):
+        assert ast.unparse(_keywords(call)['arguments']) == 'flags'
+    from robot_control.ros import controller_node
+    assert controller_node.ENTRY.options(['controller_node', *flags('0'), '--ros-args']).cpu_wakeup_latency == 0
+    with pytest.raises(SystemExit):
+        controller_node.ENTRY.options(['controller_node', *flags('-5')])
+    assert "argument --cpu-wakeup-latency: expected a whole number of microseconds >= 0, got '-5'" in \
+        capsys.readouterr().err
