@@ -1,6 +1,7 @@
 """Benchmarks: control-law cost, closed-loop rate and latency over DDS, physics rate, against targets.
 
-    python -m benchmarks.bench [--quick] [--out out/bench] [--only b1,b2,b3,b4] [--domain-id N]
+    python -m benchmarks.bench [--quick] [--out out/bench] [--only b1,b2,b3,b4] [--cpu-wakeup-latency US|none]
+                               [--domain-id N]
 
 Writes <out>/results.json (flat: metric name -> number), <out>/machine.json (CPU, cores, versions),
 <out>/results.md (the table for the README) and prints the table; child process logs go to
@@ -30,6 +31,10 @@ B3 real time at 1 kHz (benchmarks.bench_ros): the polar arm, the iiwa under comp
    the machine's load of the same minute; the targets hold for each run: missed periods at most 1.5 times its
    floor's over as many periods (a floor of 0 allows 1), p99
    latency <= 1 ms, real-time factor >= 0.99.
+CPU wake-up: B3 holds a CPU wake-up latency request of 0 us (--cpu-wakeup-latency; robot_control.ros.wakeup, the
+   nodes' flag of the same name), as a realtime setup does and as cyclictest does while it measures: the floors and
+   the loops alike then run without the idle-state exits that otherwise add up to about 100 us to a tick on a VM.
+   B2 (lockstep, a simulation's pace rather than a deadline) runs without. machine.json records it.
 Engines: B2 and B3 also run the iiwa under computed torque on MuJoCo (their keys end in _iiwa_mujoco), held to
    the same targets as the runs on PyBullet.
 B4 the World of the iiwa without ROS, on PyBullet and on MuJoCo (sim_bridge.engines), rounds interleaved: physics
@@ -46,6 +51,7 @@ and still writes every key. ROS processes run with
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST on a domain id private to this run (the first free of 101, 100, ..., 1).
 """
 import argparse
+import contextlib
 import dataclasses
 import json
 from importlib import metadata
@@ -59,6 +65,7 @@ import time
 import numpy as np
 
 from benchmarks.bench_ros import REALTIME_RUNS, RUN_ENGINES
+from robot_control.ros import wakeup
 from robot_control.tools import processes
 
 #: B1's laws: case -> key stem of their figures
@@ -482,8 +489,12 @@ def markdown(results, machine, quick, parts=None):
     head = (f'{"Quick" if quick else "Full"} run of `make bench`{which} on {machine.get("date", "an unknown date")}, '
             f'{machine["cpu_model"]}, {machine["cores"]} cores, Python {machine["python"]}, '
             f'Pinocchio {machine["pinocchio"]}, PyBullet {machine["pybullet"]}'
-            + (f'; load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} at the end (1 / 5 / 15 min).'
-               if load else '.'))
+            + (f'; load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} at the end (1 / 5 / 15 min)'
+               if load else '')
+            + ('' if 'cpu_wakeup_latency_us' not in machine else
+               '; B3 with no CPU wake-up latency request' if machine['cpu_wakeup_latency_us'] is None else
+               f'; B3 with a CPU wake-up latency request of {machine["cpu_wakeup_latency_us"]} us held')
+            + '.')
     rows = [f'| `{k}` | {v:.4g} | {verdict(k, v, results)} |' for k, v in results.items()]
     return '\n'.join([head, '', '| metric | value | target |', '|---|---:|---|', *rows, '', *summary(results)]) + '\n'
 
@@ -512,18 +523,45 @@ def parse_args(argv):
     parser.add_argument('--quick', action='store_true', help='short run (seconds), still writes every key')
     parser.add_argument('--out', default=os.path.join('out', 'bench'), help='output directory')
     parser.add_argument('--only', default=','.join(PARTS), help='comma-separated subset of b1,b2,b3,b4,b5')
+    parser.add_argument('--cpu-wakeup-latency', default='0', metavar='US|none',
+                        help='B3: hold a CPU wake-up latency request of US microseconds (default 0, as '
+                             'cyclictest does; none: no request)')
     parser.add_argument('--domain-id', type=int, default=None,
                         help='ROS_DOMAIN_ID for the DDS parts (default: the first free of 101, 100, ..., 1)')
     args = parser.parse_args(argv)
     args.only = [p.strip() for p in args.only.split(',') if p.strip()]
+    text = args.cpu_wakeup_latency
+    args.cpu_wakeup_latency = None if text == 'none' else int(text) if text.isdigit() else -1
+    if args.cpu_wakeup_latency == -1:
+        parser.error(f'--cpu-wakeup-latency: expected a whole number of microseconds >= 0 or none, got {text!r}')
     unknown = sorted(set(args.only) - set(PARTS))
     if unknown:
         parser.error(f'--only: unknown parts {unknown}; expected some of {list(PARTS)}')
     return args
 
 
-def run(parts, plan, domain_id, log, outdir):
-    """The metrics of `parts`, in table order."""
+@contextlib.contextmanager
+def wakeup_bound(us, log, setup):
+    """B3 runs as a realtime setup runs and as cyclictest measures: with a CPU wake-up latency request of `us`
+    microseconds held (None: none) for the floors and the loops alike (robot_control.ros.wakeup; the request binds
+    every process, as the nodes' --cpu-wakeup-latency does). setup['cpu_wakeup_latency_us'] is the bound held,
+    None when none is (not asked, or the device not writable: logged)."""
+    try:
+        request = None if us is None else wakeup.request(us)
+    except OSError as exc:
+        log(f'B3: no CPU wake-up latency request held ({wakeup.PATH}: {exc.strerror})')
+        request = None
+    setup['cpu_wakeup_latency_us'] = None if request is None else us
+    try:
+        yield
+    finally:
+        if request is not None:
+            os.close(request)
+
+
+def run(parts, plan, domain_id, log, outdir, wakeup_us=0, setup=None):
+    """The metrics of `parts`, in table order; `setup` (a dict) gets how B3 ran (wakeup_bound)."""
+    setup = {} if setup is None else setup
     results = {}
     if 'b1' in parts:
         log('B1 control-law cost ...')
@@ -539,8 +577,9 @@ def run(parts, plan, domain_id, log, outdir):
             log(f'B2 lockstep over DDS (domain {env["ROS_DOMAIN_ID"]}) ...')
             results.update(bench_ros.bench_lockstep(plan, env, log, os.path.join(outdir, 'logs')))
         if 'b3' in parts:
-            log(f'B3 real time at 1 kHz for {plan.realtime_s:g} s per scenario ...')
-            results.update(bench_ros.bench_realtime(plan, env, log, os.path.join(outdir, 'logs')))
+            with wakeup_bound(wakeup_us, log, setup):
+                log(f'B3 real time at 1 kHz for {plan.realtime_s:g} s per scenario ...')
+                results.update(bench_ros.bench_realtime(plan, env, log, os.path.join(outdir, 'logs')))
     if 'b5' in parts:
         from benchmarks.bench_sweep import bench_sweep
         log('B5 sweep throughput ...')
@@ -563,7 +602,8 @@ def main(argv=None):
     claim = processes.private_domain() if args.domain_id is None else None
     try:
         domain_id = args.domain_id if claim is None else claim.acquire()
-        results = run(args.only, plan, domain_id, log, args.out)
+        setup = {}
+        results = run(args.only, plan, domain_id, log, args.out, args.cpu_wakeup_latency, setup)
     except KeyboardInterrupt:
         log('interrupted: child processes stopped, nothing written')
         return 130
@@ -571,7 +611,7 @@ def main(argv=None):
         if claim is not None:
             claim.release()
     check_finite(results)
-    machine = machine_info()
+    machine = {**machine_info(), **setup}
     write_json(os.path.join(args.out, 'results.json'), results)
     write_json(os.path.join(args.out, 'machine.json'), {**machine, 'quick': args.quick})
     with open(os.path.join(args.out, 'results.md'), 'w', encoding='utf-8') as f:

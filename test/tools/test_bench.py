@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from robot_control.laws import LAWS
+from robot_control.ros import wakeup
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -68,6 +69,8 @@ def test_quick_bench_writes_every_key_as_a_finite_number(tmp_path):
     with open(tmp_path / 'machine.json', encoding='utf-8') as f:
         machine = json.load(f)
     assert machine['cores'] >= 1 and machine['cpu_model']
+    # B3 held a CPU wake-up latency request of 0 us where this user may (robot_control.ros.wakeup)
+    assert machine['cpu_wakeup_latency_us'] == (0 if os.access(wakeup.PATH, os.W_OK) else None)
     assert 'law_us_ct_7dof_median' in proc.stdout           # the table is printed
     assert 'Targets met: ' in proc.stdout                   # with its verdict
     with open(tmp_path / 'results.md', encoding='utf-8') as f:
@@ -348,3 +351,7 @@ def test_the_markdown_header_names_the_parts_of_a_partial_run():
     assert partial.startswith('Full run of `make bench` (parts B1, B4 only) on 2026-11-26'), partial
     for parts in (None, list(bench.PARTS)):
         assert bench.markdown(results, machine, False, parts).startswith('Full run of `make bench` on'), parts
+    held = bench.markdown(results, {**machine, 'cpu_wakeup_latency_us': 0}, False).splitlines()[0]
+    assert held.endswith('; B3 with a CPU wake-up latency request of 0 us held.'), held
+    none = bench.markdown(results, {**machine, 'cpu_wakeup_latency_us': None}, False).splitlines()[0]
+    assert none.endswith('; B3 with no CPU wake-up latency request.'), none
