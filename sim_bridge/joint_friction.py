@@ -227,7 +227,7 @@ class ActiveSets:
     what depends on W alone formed once: the slipping joints' friction f_N = -fc_N s_N, W f_N and W_SS^-1."""
 
     def __init__(self, W, fc, stuck, sign):
-        self.stuck, self.sign, self.fc = stuck, sign, fc
+        self.stuck, self.sign = stuck, sign
         self.f = np.where(stuck, 0.0, -fc * sign)      # the slipping joints' friction (stuck ones: solve())
         self.w_f = W @ self.f
         self.held = np.flatnonzero(stuck)
