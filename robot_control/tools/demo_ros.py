@@ -144,38 +144,40 @@ class RunControl:
         """True when node `node_name` subscribes to `topic` (graph)."""
         return any(i.node_name == node_name for i in self.node.get_subscriptions_info_by_topic(topic))
 
-    def pause(self, on, timeout=15.0, poll=None, retry=2.0):
-        """Pause (True) or resume (False) the bridge; returns its message.
-
-        The request is re-sent every `retry` s without an answer: a response can be lost when the
-        bridge has not yet matched this client's response reader (ROS 2 service discovery race);
-        pausing is idempotent, so a repeated request is harmless.
-        """
+    def pause(self, on, timeout=15.0, poll=None):
+        """Pause (True) or resume (False) the bridge; returns its message (pausing is idempotent: _answer)."""
         self.spin_until(self.pause_client.service_is_ready, timeout, poll, 'the service /sim_bridge/pause')
-        deadline = time.monotonic() + timeout
-        while True:
-            future = self.pause_client.call_async(SetBool.Request(data=bool(on)))
-            try:
-                self.spin_until(future.done, min(retry, max(0.0, deadline - time.monotonic())), poll,
-                                '/sim_bridge/pause to answer')
-                break
-            except TimeoutError:
-                self.pause_client.remove_pending_request(future)
-                if time.monotonic() >= deadline:
-                    raise TimeoutError(f'timed out after {timeout:g} s waiting for /sim_bridge/pause({on}) '
-                                       'to answer') from None
-        result = future.result()
+        result = self._answer(lambda: self.pause_client.call_async(SetBool.Request(data=bool(on))), timeout, poll,
+                              f'/sim_bridge/pause({on}) to answer', drop=self.pause_client.remove_pending_request)
         if result is None or not result.success:
             raise RuntimeError(f'/sim_bridge/pause({on}) failed: {None if result is None else result.message}')
         return result.message
+
+    def _answer(self, send, timeout, poll, what, drop=None, retry=2.0):
+        """The result of the request send() makes (it returns the Future of a service call), the request re-sent
+        every `retry` s without an answer, until `timeout` s: a response can be lost while the server has not
+        yet matched this client's response reader (ROS 2 service discovery race). Only idempotent requests come
+        here. drop(future) forgets an unanswered one (None: it stays pending, harmless)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            future = send()
+            try:
+                self.spin_until(future.done, min(retry, max(0.0, deadline - time.monotonic())), poll, what)
+                return future.result()
+            except TimeoutError:
+                if drop is not None:
+                    drop(future)
+                if time.monotonic() >= deadline:
+                    raise TimeoutError(f'timed out after {timeout:g} s waiting for {what}') from None
 
     def set_bridge_parameters(self, values, timeout=10.0, poll=None):
         """Set run-time parameters of the bridge ({name: value}); RuntimeError naming a refused one."""
         from rclpy.parameter import Parameter
         client = self._parameter_client('sim_bridge', timeout, poll)
-        future = client.set_parameters([Parameter(k, value=v) for k, v in values.items()])
-        self.spin_until(future.done, timeout, poll, '/sim_bridge to set its parameters')
-        for name, result in zip(values, future.result().results):
+        parameters = [Parameter(k, value=v) for k, v in values.items()]
+        answer = self._answer(lambda: client.set_parameters(parameters), timeout, poll,
+                              '/sim_bridge to set its parameters')
+        for name, result in zip(values, answer.results):
             if not result.successful:
                 raise RuntimeError(f'/sim_bridge refused {name} = {values[name]!r}: {result.reason}')
 
@@ -183,9 +185,9 @@ class RunControl:
         """{name: value} of the parameters `names` of node `node_name` (None for one it has not set)."""
         from rclpy.parameter import parameter_value_to_python
         client = self._parameter_client(node_name, timeout, poll)
-        future = client.get_parameters(list(names))
-        self.spin_until(future.done, timeout, poll, f'/{node_name} to give its parameters')
-        return {name: parameter_value_to_python(value) for name, value in zip(names, future.result().values)}
+        answer = self._answer(lambda: client.get_parameters(list(names)), timeout, poll,
+                              f'/{node_name} to give its parameters')
+        return {name: parameter_value_to_python(value) for name, value in zip(names, answer.values)}
 
     def _parameter_client(self, node_name, timeout, poll):
         """The AsyncParameterClient of `node_name`, its services ready."""

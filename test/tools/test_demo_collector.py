@@ -1,9 +1,10 @@
 """The demo's collector (robot_control.tools.demo_ros.Collector) keeps every sample of a run whose ticks come
 faster than the demo's Python thread takes them: DDS's threads hold them in the reader's history, deep
 enough (demo_ros.DEPTH, with the readers' room of robot_control/ros/fastdds_profile.xml) for the backlog of a
-lockstep run on a busy machine."""
+lockstep run on a busy machine. RunControl re-sends a service request that got no answer."""
 import time
 
+import pytest
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -43,3 +44,26 @@ def test_the_collector_keeps_a_backlog_of_30000_ticks_published_while_it_was_not
         executor.shutdown()
         collector.destroy()
         node.destroy_node()
+
+
+def test_an_unanswered_request_is_sent_again_until_one_is_answered(ros_context):
+    """RunControl's service calls (pause, bridge parameters) re-send an idempotent request that got no answer
+    within `retry` s (a response lost to the service discovery race), forget the unanswered one, and give the
+    first answer; with none by `timeout`, TimeoutError naming what it waited for."""
+    from rclpy.task import Future
+    control = demo_ros.RunControl(ros_context, make_executor(context=ros_context), name='retry_test')
+    try:
+        sent, dropped = [], []
+
+        def send():
+            future = Future()
+            if len(sent) == 2:                  # the third request is answered
+                future.set_result('answer')
+            sent.append(future)
+            return future
+        assert control._answer(send, 5.0, None, 'the answer', drop=dropped.append, retry=0.05) == 'answer'
+        assert len(sent) == 3 and dropped == sent[:2]
+        with pytest.raises(TimeoutError, match='^timed out after 0.2 s waiting for nothing$'):
+            control._answer(Future, 0.2, None, 'nothing', retry=0.05)
+    finally:
+        control.node.destroy_node()
