@@ -9,7 +9,6 @@ stays open: the kernel drops it when the process ends, however it ends (kernel d
 cyclictest holds the same request while it measures. Writing the file needs root or a udev rule that gives
 the user write access. The CPUs then stay busy when idle: it costs power, and CPU time of the host on a VM.
 """
-import contextlib
 import os
 import struct
 
@@ -33,14 +32,3 @@ def bound(path=None):
     """The bound in force now, us: the least of every request held (the kernel's default when none is)."""
     with open(path or PATH, 'rb') as f:
         return struct.unpack('=i', f.read(4))[0]
-
-
-@contextlib.contextmanager
-def held(us, path=None):
-    """request(us, path) for the duration of the block; nothing when `us` is None."""
-    fd = None if us is None else request(us, path)
-    try:
-        yield
-    finally:
-        if fd is not None:
-            os.close(fd)
