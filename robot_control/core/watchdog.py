@@ -4,6 +4,12 @@ The age of the last state is taken on two clocks, the node's (simulated time whe
 and the steady clock, and the larger counts: a stopped simulator also stops /clock, and then only
 the steady clock shows that time passes. Times are integer ns.
 
+A node clock that read 0 when the state was answered had not started (use_sim_time before the first
+/clock message: ROS time is 0 until then), so that state's age is taken on the steady clock alone. The
+first /clock then jumps the node clock from 0 to the simulator's time, and that jump is not an age:
+/clock and joint_states are two topics, and under load DDS may match /clock's reader a second or more
+after joint_states'.
+
 The watchdog is checked every `period` s of the steady clock (timeout / CHECKS_PER_TIMEOUT). A check
 that comes more than two periods after the one before it finds its own process held up (by the
 machine's load, not by the robot): states that came in the meantime wait in the queue behind the
@@ -40,10 +46,12 @@ class StateWatchdog:
         return recovered
 
     def age(self, node_ns, steady_ns):
-        """Seconds since the last state (the larger of the two clocks), None before the first."""
+        """Seconds since the last state (the larger of the two clocks; the steady clock alone when the node
+        clock had not started then), None before the first."""
         if self._node_ns is None:
             return None
-        return units.seconds(max(node_ns - self._node_ns, steady_ns - self._steady_ns))
+        steady = steady_ns - self._steady_ns
+        return units.seconds(max(node_ns - self._node_ns, steady) if self._node_ns else steady)
 
     def check(self, node_ns, steady_ns):
         """True when this check trips the watchdog: the age passed timeout, it was not tripped yet, and

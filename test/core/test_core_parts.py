@@ -119,6 +119,17 @@ def test_the_watchdog_trips_on_the_larger_age_of_the_two_clocks_and_recovers():
     assert dog.fresh(1001 * MS, 2001 * MS) and not dog.tripped   # recovery reported once
 
 
+def test_a_state_answered_before_the_node_clock_started_ages_on_the_steady_clock_alone():
+    dog = StateWatchdog(0.5)
+    dog.fresh(0, 1000 * MS)                  # use_sim_time, no /clock yet: ROS time reads 0
+    # the first /clock arrives with the simulator at 1.39 s, before the next state: not an age of 1.39 s
+    assert not dog.check(1390 * MS, 1001 * MS) and dog.age(1390 * MS, 1001 * MS) == pytest.approx(0.001)
+    assert not dog.check(1390 * MS, 1401 * MS)
+    assert dog.check(1390 * MS, 1501 * MS)   # the steady clock still counts
+    dog.fresh(1391 * MS, 1502 * MS)          # answered once the clock runs: both clocks count again
+    assert dog.check(1892 * MS, 1503 * MS) and dog.age(1892 * MS, 1503 * MS) == pytest.approx(0.501)
+
+
 def test_a_check_that_comes_late_finds_its_process_held_up_and_leaves_the_trip_to_the_next():
     held, silent = StateWatchdog(0.5), StateWatchdog(0.5)
     assert held.period == pytest.approx(0.1)
