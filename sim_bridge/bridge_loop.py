@@ -482,7 +482,7 @@ class RealtimeLoop(BridgeLoop):
             self._deadline.command(stamp_ns, self._clock())
         self._command(reason, ok)
         if stamp_ns == self.measured.t_ns:
-            self._driver.prepare()
+            self._driver.prepare(answered=True)
 
     def _between_ticks(self):
         """Nothing at once: the next tick's terms are formed when the answer to this state is in (on_joint_command;

@@ -29,6 +29,7 @@ class JointPhysics:
         self._last = None       # (M, predicted qd+, constraint torque assumed) of the last step; None: none
         self._sets = None       # the Coulomb solver's active sets of the last step (coulomb_sets); None: none
         self._ahead = None      # _step_ahead() formed by prepare() for the next step; None: none
+        self._solved = None     # (loads, _solve()) formed by prepare() for the next step; None: none
         self.loss = None        # tau_loss (n,) of the last exact step (loss()); None: braked or not yet stepped
         for j, b in zip(self._joints, friction.viscous.tolist()):
             p.changeDynamics(self._body, j, jointDamping=b, physicsClientId=self._client)
@@ -36,25 +37,39 @@ class JointPhysics:
     def torque(self, forces, cartesian_force=None, braked=False):
         """The joint torques (list of n floats) to send PyBullet for the step about to run, given `forces`
         (the actuator, disturbance and spring torque, list of n floats) and the Cartesian disturbance
-        (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`."""
+        (3,) N or None (PyBullet applies it): see sim_bridge.joint_friction. While `braked`: `forces`.
+        A step prepare() solved for these same loads is taken as solved."""
         if braked:
-            self._last = self.loss = self._sets = self._ahead = None
+            self._last = self.loss = self._sets = self._ahead = self._solved = None
             return forces
         ahead = self._step_ahead() if self._ahead is None else self._ahead
-        self._ahead = None
+        solved = self._solved
+        self._ahead = self._solved = None
+        if solved is None or not _same_loads(solved[0], (forces, cartesian_force)):
+            solved = (None, self._solve(ahead, forces, cartesian_force))
+        out, self._last, self.loss, self._sets = solved[1]
+        return out
+
+    def prepare(self, loads=None):
+        """Form now the next step's _step_ahead() (the state does not change until that step): what the step
+        after the next command then need not do (once until that step: a second call does nothing). `loads`:
+        (forces, cartesian_force) as torque() will get them, when already known (a command that is due, or
+        answered): the step is then solved for them too, and torque() takes that solution if its loads are the
+        same. A step, set() or the brakes discard both."""
+        if self._ahead is None:
+            self._ahead = self._step_ahead()
+        if loads is not None and self._solved is None:
+            self._solved = (loads, self._solve(self._ahead, *loads))
+
+    def _solve(self, ahead, forces, cartesian_force):
+        """(torques to send (list of n floats), the step's (M, predicted qd+, tau_c assumed), tau_loss, the Coulomb
+        sets) of the step `ahead` (_step_ahead) under these loads."""
         q_all, qd_all, mass, constraint, plan = ahead
         tau = np.array(forces)
         x = tau if cartesian_force is None else tau + self._jacobian(q_all, qd_all).T @ cartesian_force
-        f, qdd, self.loss, self._sets = plan.solve(x)
-        self._last = (mass, plan.qd + self.dt * qdd, constraint)
-        return (tau + f - self.friction.armature * qdd).tolist()
-
-    def prepare(self):
-        """Form now the next step's _step_ahead() (the state does not change until that step): what the step
-        after the next command then need not do (once until that step: a second call does nothing). A step, set()
-        or the brakes discard it."""
-        if self._ahead is None:
-            self._ahead = self._step_ahead()
+        f, qdd, loss, sets = plan.solve(x)
+        last = (mass, plan.qd + self.dt * qdd, constraint)
+        return (tau + f - self.friction.armature * qdd).tolist(), last, loss, sets
 
     def _step_ahead(self):
         """What a step needs of the state alone: (q, qd of every movable joint (lists), M (n, n), the constraint
@@ -88,3 +103,11 @@ class JointPhysics:
         linear, _ = p.calculateJacobian(self._body, self._tip, [0.0, 0.0, 0.0], q_all, qd_all, self._zeros,
                                         physicsClientId=self._client)
         return np.array(linear) if self._dof is None else np.array(linear)[:, self._dof]
+
+
+def _same_loads(a, b):
+    """Whether two (forces, cartesian_force) are the same loads: equal lists, and both None or equal arrays."""
+    (forces_a, cart_a), (forces_b, cart_b) = a, b
+    if forces_a != forces_b:
+        return False
+    return cart_a is cart_b or (cart_a is not None and cart_b is not None and np.array_equal(cart_a, cart_b))

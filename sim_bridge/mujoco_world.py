@@ -30,7 +30,7 @@ from sim_bridge import mujoco_model, surfaces
 from sim_bridge.disturbance import Disturbance
 from sim_bridge.joint_friction import JointFriction, inertia, step_loss
 from sim_bridge.mujoco_surface import MujocoSurface
-from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, resolve, scenario_of, whole_ns
+from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, clip_torque, resolve, scenario_of, whole_ns
 
 #: the brake's position time constant in steps (PyBullet's position motor: positionGain 0.1)
 BRAKE_STEPS = 10.0
@@ -189,15 +189,15 @@ class MujocoWorld:
         self.hold_torque(tau)
         return self._tau.copy()
 
+    @property
+    def held(self):
+        """The actuator torque the next step holds (what hold_torque last held), (n,) N m or N."""
+        return self._tau
+
     def hold_torque(self, tau):
         """set_torque without the returned array: the bridge's call, once per control period. A list of n finite
         numbers is checked by one sum (validation.float_list) and compared without numpy."""
-        values = validation.float_list(tau, self.n)
-        if values is None:
-            values = validation.vector('tau', tau, self.n)
-        if max(values) > self._limit_min or min(values) < -self._limit_min:   # most commands: nothing to clip
-            values = np.minimum(np.maximum(values, -self._limit), self._limit)
-        self._tau = np.array(values, dtype=float)                               # a copy: held until changed
+        self._tau = np.array(clip_torque(tau, self.n, self._limit, self._limit_min))   # a copy: held until changed
 
     def set_friction(self, friction):
         """Replace the joints' friction and armature (World's `friction` argument), from the next step."""
@@ -220,7 +220,7 @@ class MujocoWorld:
             self._brake, self._brake_applied = (self.state()[0] if on else None), np.zeros(self.n)
 
     # -- stepping ------------------------------------------------------------------------------
-    def prepare(self):
+    def prepare(self, tau=None):
         """Nothing to form ahead of a step (World.prepare's counterpart: MuJoCo's joint physics is its own)."""
 
     def step(self, k=1):

@@ -277,6 +277,11 @@ class ActuationLine:
         if self._arrived is not None:
             self._arrived = (self._arrived[0], False)
 
+    def due(self):
+        """The values of the command the next tick() makes the World hold, None when none falls due then."""
+        due = self._line[0]
+        return None if due is None else due[0]
+
     def tick(self):
         """Before a tick's physics step: the command that arrived `ticks` ticks ago takes effect."""
         self._line.append(self._arrived)
@@ -308,11 +313,19 @@ class Driver:
         self.hold = world.hold_torque if self._line is None else self._line.command
         self.step = world.step if self._sensors is None and self._line is None else self._step
 
-    def prepare(self):
-        """Between ticks (lockstep: once a state is published; realtime: once its answer is in): what the next tick
-        needs that no command changes, formed ahead (World.prepare, Sensors.prepare). The same results; a second
-        call before the tick does nothing."""
-        self._world.prepare()
+    def prepare(self, answered=False):
+        """Between ticks (lockstep: once a state is published; realtime: once its answer is in, `answered`): what the
+        next tick needs that no command changes, formed ahead (World.prepare, Sensors.prepare); and the next tick's
+        step for the torque it will hold when that is known now: the command the actuation line has due, or else
+        the torque held, with no line once the answer is in. The same results; a second call before the tick does
+        nothing."""
+        held = None
+        if self._line is not None:
+            held = self._line.due()
+            held = self._world.held if held is None else held
+        elif answered:
+            held = self._world.held
+        self._world.prepare(held)
         if self._sensors is not None:
             self._sensors.prepare()
 

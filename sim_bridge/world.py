@@ -29,7 +29,7 @@ from sim_bridge import physics_check, pybullet_surface, surfaces
 from sim_bridge.disturbance import Disturbance
 from sim_bridge.joint_friction import JointFriction
 from sim_bridge.joint_physics import JointPhysics
-from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, resolve, scenario_of, whole_ns
+from sim_bridge.world_base import UNLIMITED_BRAKE, check_travel, clip_torque, resolve, scenario_of, whole_ns
 
 def _zero_damping(client, body):
     """No hidden damping: PyBullet's default link and joint damping would act on every joint."""
@@ -100,7 +100,8 @@ class World:
     disturbance: None or {'joint_torque': (n,), 'cartesian_force': (3,)} (see set_disturbance).
     friction: None or {'coulomb': (n,) N m or N, 'viscous': (n,) N m s/rad or N s/m, 'armature': (n,)
       kg m^2 or kg} of the joints (sim_bridge.joint_friction; see set_friction); None: all zero. The
-      attribute `friction` is the JointFriction in force (read it; change it with set_friction).
+      attribute `friction` is the JointFriction in force (read it; change it with set_friction), `held` the
+      torque held for the next step (read it; change it with set_torque or hold_torque).
     report: the start-up report, a list of strings: the URDF's warnings and where PyBullet's physics at the
       start state differs from Pinocchio's on the same URDF (sim_bridge.physics_check.report).
     """
@@ -200,7 +201,7 @@ class World:
             raise ArgumentError('urdf', f'PyBullet cannot load {spec.urdf}: {exc}') from None
         indices = _indices(c, self._body, spec.joints, spec.tip)
         self._idx, self._travel, self._others, self._limit, self._tip = indices
-        self._neg_limit, self._limit_min = -self._limit, float(np.min(self._limit))
+        self._limit_min = float(np.min(self._limit))
         self._brake_force = np.where(np.isfinite(self._limit), self._limit, UNLIMITED_BRAKE).tolist()
         _zero_damping(c, self._body)
         self._joints = JointPhysics(c, self._body, self._idx, self._tip, self.dt, self.friction)
@@ -212,7 +213,7 @@ class World:
             p.resetJointState(self._body, i, float(q), 0.0, physicsClientId=c)
         self._wall = _make_wall(self, c, self._body, self._tip) if spec.surface is not None else None
         self.t_ns = 0
-        self._tau_list = [0.0] * self.n         # the held torque, as PyBullet is sent it
+        self.held = [0.0] * self.n              # the torque held for the next step, as PyBullet is sent it
         self._brake = None
 
     def reset(self, q0=None):
@@ -253,17 +254,11 @@ class World:
         Non-finite or wrong-length tau -> ValueError; the previous torque stays. Returns the
         clipped torque (what will be applied; while braked it is stored for the release), a new array."""
         self.hold_torque(tau)
-        return np.array(self._tau_list, dtype=float)
+        return np.array(self.held, dtype=float)
 
     def hold_torque(self, tau):
-        """set_torque without the returned array: the bridge's call, once per control period. A list
-        of n finite numbers is checked by one sum and held as a copy, without numpy."""
-        values = validation.float_list(tau, self.n)
-        if values is None:
-            values = validation.vector('tau', tau, self.n).tolist()
-        if max(values) > self._limit_min or min(values) < -self._limit_min:   # most commands: nothing to clip
-            values = np.minimum(np.maximum(values, self._neg_limit), self._limit).tolist()
-        self._tau_list = values
+        """set_torque without the returned array: the bridge's call, once per control period (no numpy: clip_torque)."""
+        self.held = clip_torque(tau, self.n, self._limit, self._limit_min)
 
     def set_disturbance(self, joint_torque=None, cartesian_force=None):
         """Replace the disturbance: joint_torque (n,) N m or N added at the joints, cartesian_force
@@ -320,33 +315,42 @@ class World:
             p.stepSimulation(physicsClientId=self._client)
             self.t_ns += self.dt_ns
 
-    def prepare(self):
-        """Form ahead, between steps, what the next step's joint friction and armature need of the current state
-        alone (JointPhysics.prepare): the bridge calls it once a state is published (realtime: once its answer is
-        in), so that the step after the next command does less. Same results; nothing to do without Coulomb
-        friction and armature, or braked."""
+    def prepare(self, tau=None):
+        """Between steps (the bridge: once a state is published, or answered), form ahead what the next step's joint
+        friction and armature need of the state alone (JointPhysics.prepare), and solve that step for `tau` (n,),
+        N m or N, the torque it will hold, when known now (None: not known). Same results."""
         if self._joints.exact and self._brake is None:
-            self._joints.prepare()
+            if tau is None:
+                self._joints.prepare()
+            else:
+                forces, force = self._loads(clip_torque(tau, self.n, self._limit, self._limit_min))
+                self._joints.prepare((list(forces), None if force is None else force.copy()))
 
     def _apply_loads(self):
         """Joint torque (actuator unless braked, disturbance, mass-spring, friction and armature) and the
         Cartesian force."""
-        c, spec, dist = self._client, self._spec, self._disturbance
-        if self._brake is None and spec.spring is None and not dist.has_joint_torque:
-            forces = self._tau_list         # the common case: the actuator torque alone
-        else:
-            tau = dist.joint_torque + (0.0 if self._brake is not None else np.array(self._tau_list))
-            if spec.spring is not None:
-                x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=c)[:2]
-                tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
-            forces = tau.tolist()
+        c, dist = self._client, self._disturbance
+        forces, force = self._loads(self.held)
         if self._joints.exact:
-            force = dist.cartesian_force if dist.has_force else None
             forces = self._joints.torque(forces, force, self._brake is not None)
         p.setJointMotorControlArray(self._body, self._idx, p.TORQUE_CONTROL, forces=forces, physicsClientId=c)
         if dist.has_force:
             p.applyExternalForce(self._body, self._tip, self._disturbance.cartesian_force.tolist(),
                                  self.tip_position().tolist(), p.WORLD_FRAME, physicsClientId=c)
+
+    def _loads(self, tau_list):
+        """(forces, cartesian force): the joint torque before friction and armature (list of n floats) of actuator
+        torque tau_list (unless braked), disturbance and mass-spring; the Cartesian disturbance (3,) N or None."""
+        spec, dist = self._spec, self._disturbance
+        if self._brake is None and spec.spring is None and not dist.has_joint_torque:
+            forces = tau_list               # the common case: the actuator torque alone
+        else:
+            tau = dist.joint_torque + (0.0 if self._brake is not None else np.array(tau_list))
+            if spec.spring is not None:
+                x, xd = p.getJointState(self._body, self._idx[0], physicsClientId=self._client)[:2]
+                tau = tau - (spec.spring[0] * x ** 3 + spec.spring[1] * xd)
+            forces = tau.tolist()
+        return forces, (dist.cartesian_force if dist.has_force else None)
 
     # -- readings ------------------------------------------------------------------------------
     def state(self):
@@ -360,7 +364,7 @@ class World:
     def state_values(self):
         """state() as three tuples of n floats, without numpy (what the bridge serializes)."""
         q, qd, _, applied = zip(*p.getJointStates(self._body, self._idx, physicsClientId=self._client))
-        return q, qd, applied if self._brake is not None else tuple(self._tau_list)
+        return q, qd, applied if self._brake is not None else tuple(self.held)
 
     def state_into(self, q_out, qd_out, tau_out):
         """state() written into three float64 (n,) arrays (no allocation); returns them."""

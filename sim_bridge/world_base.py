@@ -161,6 +161,18 @@ def whole_ns(dt):
     return dt_ns
 
 
+def clip_torque(tau, n, limit, limit_min):
+    """The torque a World holds for `tau` (n,), N m or N: checked (ArgumentError naming tau) and clipped to
+    +-limit (n,) (limit_min its least entry), a list of n floats. A list of n finite numbers is checked by one
+    sum (validation.float_list), and most commands, inside +-limit_min, are not clipped: no numpy."""
+    values = validation.float_list(tau, n)
+    if values is None:
+        values = validation.vector('tau', tau, n).tolist()
+    if max(values) > limit_min or min(values) < -limit_min:
+        values = np.minimum(np.maximum(values, -limit), limit).tolist()
+    return values
+
+
 def check_travel(joints, q0, travel):
     """q0 inside the URDF position limits `travel` ((lower, upper) per joint; PyBullet enforces them
     where lower <= upper), or ArgumentError naming q0."""

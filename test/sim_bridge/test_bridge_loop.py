@@ -574,9 +574,9 @@ def prepared_ticks(loop):
     """A list that grows by the World's t_ns at each World.prepare the loop calls."""
     calls, prepare = [], loop.world.prepare
 
-    def counting():
+    def counting(tau=None):
         calls.append(loop.world.t_ns)
-        prepare()
+        prepare(tau)
     loop.world.prepare = counting
     return calls
 

@@ -17,7 +17,8 @@ import pytest
 from robot_control import scenarios
 from robot_control.models import for_scenario
 from robot_control.validation import ArgumentError
-from sim_bridge import bridge_params, physics_check
+from sim_bridge import bridge_params, joint_friction, physics_check
+from sim_bridge.engines import make_world
 from sim_bridge.joint_friction import JointFriction, _coordinate_descent, coulomb_sets, coulomb_torque
 
 DT = 0.001
@@ -275,8 +276,8 @@ def test_friction_survives_reset_and_changes_at_run_time(world_on):
 def test_a_step_prepared_ahead_is_the_same_step_to_the_bit(world_on):
     """World.prepare between steps (the bridge's call once a state is published) changes nothing: the iiwa with
     Coulomb friction, viscous friction and armature, sticking and slipping, pushed at the tip, braked and
-    released, its friction changed after a prepare, prepared twice on some steps, follows the same trajectory bit
-    for bit as without."""
+    released, its friction changed after a prepare, prepared twice on some steps, prepared for the torque it then
+    holds (solved ahead) or for another, follows the same trajectory bit for bit as without."""
     friction = {'coulomb': [1.8, 1.8, 1.0, 1.0, 0.63, 0.23, 0.23], 'viscous': [0.17, 0.17, 0.09, 0.09, 0.06, 0.02, 0.02],
                 'armature': [0.1] * 7}
     worlds = [world_on('iiwa', friction=friction) for _ in range(2)]
@@ -284,6 +285,11 @@ def test_a_step_prepared_ahead_is_the_same_step_to_the_bit(world_on):
     runs = [[], []]
     for k in range(1200):
         for world, run in zip(worlds, runs):
+            tau = g_of(world) + amplitude * np.sin(0.01 * k * np.arange(1, 8)) * (1 + k // 200 % 2)
+            if world is worlds[1] and k:
+                world.prepare(None if k % 4 == 0 else (tau + 0.5 * (k % 4 == 1)).tolist())
+                if k % 3 == 0:
+                    world.prepare(tau.tolist())         # a second call before the step does nothing
             if k == 300:
                 world.set_disturbance(cartesian_force=[0.0, 5.0, -20.0])
             if k == 500:
@@ -292,14 +298,33 @@ def test_a_step_prepared_ahead_is_the_same_step_to_the_bit(world_on):
                 world.brake(False)
             if k == 700:
                 world.set_friction({**friction, 'coulomb': [0.5] * 7})
-            world.set_torque(g_of(world) + amplitude * np.sin(0.01 * k * np.arange(1, 8)) * (1 + k // 200 % 2))
+            world.set_torque(tau)
             world.step()
-            if world is worlds[1]:
-                world.prepare()
-                if k % 3 == 0:
-                    world.prepare()                     # a second call before the step does nothing
             run.append(np.concatenate([*world.state()[:2], world.joint_friction_torque()]))
     assert np.array_equal(np.array(runs[0]), np.array(runs[1]))
+
+
+def test_a_step_prepared_for_the_torque_it_holds_is_solved_once(monkeypatch):
+    """World.prepare(tau) solves the next step's friction for tau ahead; the step holding tau takes that solution
+    (one solve per step), a step holding another torque solves again. (PyBullet's World: MuJoCo's joint physics
+    is its own.)"""
+    solves = []
+    solve = joint_friction.StepPlan.solve
+    monkeypatch.setattr(joint_friction.StepPlan, 'solve', lambda plan, x=None: solves.append(1) or solve(plan, x))
+    world = make_world('pybullet', 'iiwa', friction={'coulomb': [1.0] * 7, 'armature': [0.1] * 7})
+    try:
+        world.brake(False)
+        tau = g_of(world).tolist()
+        world.set_torque(tau)
+        world.step()
+        for expected, held in ((1, tau), (2, [t + 1.0 for t in tau])):
+            solves.clear()
+            world.prepare(tau)
+            world.set_torque(held)
+            world.step()
+            assert len(solves) == expected
+    finally:
+        world.close()
 
 
 @pytest.mark.parametrize('friction,name', [({'coulomb': [-1.0]}, 'friction.coulomb'),

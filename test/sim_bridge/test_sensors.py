@@ -140,6 +140,26 @@ def test_effort_is_the_motor_torque_less_friction_and_rotor_inertia(engine):
         assert effort[0] == pytest.approx(motor[0] - loss, rel=2e-3)
 
 
+def test_the_driver_prepares_the_next_step_for_the_torque_it_will_hold():
+    """Driver.prepare hands the World the torque the next tick holds when that is known: with an actuation line the
+    command falling due (the torque held when none does), without one the held torque once the answer is in."""
+    with make_world('pybullet', 'polar_two_link', q0=Q0, friction={'coulomb': [1.0, 1.0]}) as w:
+        seen, prepare = [], w.prepare
+        w.prepare = lambda tau=None: seen.append(None if tau is None else list(tau)) or prepare(tau)
+        w.hold_torque([0.5, 0.5])
+        driver = Driver(w, sensor_model(), MS)
+        driver.hold([1.0, 2.0])
+        driver.prepare()
+        driver.prepare(answered=True)
+        assert seen == [None, [1.0, 2.0]]
+        delayed = Driver(w, sensor_model(**{'delay.actuation_ticks': 1}), MS)
+        delayed.hold([3.0, 4.0])
+        delayed.prepare()                                  # nothing due yet: the torque held
+        delayed.step(1)
+        delayed.prepare()                                  # [3, 4] falls due at the next tick
+        assert seen[2:] == [[1.0, 2.0], [3.0, 4.0]]
+
+
 def test_with_nothing_modelled_the_loop_publishes_and_steps_the_world_itself(world):
     driver = Driver(world, sensor_model(), MS)
     assert driver.measured is world and driver.step == world.step and driver.hold == world.hold_torque
