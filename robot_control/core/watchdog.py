@@ -32,7 +32,8 @@ class StateWatchdog:
         self.tripped = False
         self.trips = 0
         self.late_checks = 0        # checks that found their process held up (and so did not trip)
-        self._node_ns = self._steady_ns = self._checked_ns = None
+        self._node_ns = self._steady_ns = None
+        self.checked_ns = None      # steady clock reading of the last check, ns (None before the first)
 
     @property
     def period(self):
@@ -56,7 +57,7 @@ class StateWatchdog:
     def check(self, node_ns, steady_ns):
         """True when this check trips the watchdog: the age passed timeout, it was not tripped yet, and
         this check came within two periods of the one before it (see the module docstring)."""
-        last, self._checked_ns = self._checked_ns, steady_ns
+        last, self.checked_ns = self.checked_ns, steady_ns
         age = self.age(node_ns, steady_ns)
         if self.tripped or age is None or age <= self.timeout:
             return False

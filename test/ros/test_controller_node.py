@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
+from rosgraph_msgs.msg import Clock as ClockMsg
 from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -775,6 +776,25 @@ def test_watchdog_trips_and_recovers_from_the_current_state(ros_context):
                                np.zeros(2), gains, np.zeros(2))
         np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12)
         assert spin_until(ex, lambda: _status(robot, 'joint_states watchdog')[0] == 'OK')
+
+
+def test_the_first_clock_after_answered_states_is_no_age_of_the_states(ros_context):
+    """With use_sim_time, states answered before the first /clock (ROS time 0 then) age on the steady clock alone:
+    the first /clock, at the simulator's time (100 s here), is no silence of 100 s. Under load DDS may match
+    /clock's reader a second or more after joint_states'."""
+    with rig(ros_context, **POLAR, use_sim_time=True, state_timeout=5.0) as (ex, ctrl, robot):
+        for k in range(3):
+            robot.step(ex, POLAR_JOINTS, [0.1, 0.5], [0.0, 0.0], T0_NS + k * DT_NS)
+        assert ctrl.get_clock().now().nanoseconds == 0                  # no /clock yet
+        clock = robot.node.create_publisher(ClockMsg, '/clock', CONTROL_QOS)
+        msg = ClockMsg()
+        msg.clock.sec = 100
+        assert spin_until(ex, lambda: ctrl.get_clock().now().nanoseconds >= 100 * units.NS_PER_S, every=0.25,
+                          action=lambda: clock.publish(msg))
+        seen_ns = time.monotonic_ns()
+        watchdog = ctrl.session.watchdog
+        assert spin_until(ex, lambda: (watchdog.checked_ns or 0) > seen_ns)     # a check since /clock
+        assert not ctrl.watchdog_tripped and ctrl.trips == 0
 
 
 def _bad_states():
