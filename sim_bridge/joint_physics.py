@@ -43,11 +43,10 @@ class JointPhysics:
             self._last = self.loss = self._sets = self._ahead = self._solved = None
             return forces
         ahead = self._step_ahead() if self._ahead is None else self._ahead
-        solved = self._solved
+        solved, loads = self._solved, (forces, cartesian_force)
         self._ahead = self._solved = None
-        if solved is None or not _same_loads(solved[0], (forces, cartesian_force)):
-            solved = (None, self._solve(ahead, forces, cartesian_force))
-        out, self._last, self.loss, self._sets = solved[1]
+        step = solved[1] if solved is not None and _same_loads(solved[0], loads) else self._solve(ahead, *loads)
+        out, self._last, self.loss, self._sets = step
         return out
 
     def prepare(self, loads=None):
