@@ -94,6 +94,13 @@ class JointFriction:
         return bool(self.exact or self.viscous.any())
 
     @cached_property
+    def armature_matrix(self):
+        """diag(I_a) (n, n), kg m^2 or kg (read-only)."""
+        matrix = np.diag(self.armature)
+        matrix.setflags(write=False)
+        return matrix
+
+    @cached_property
     def exact(self):
         """True when the per-step path runs (Coulomb friction or armature on some joint)."""
         return bool(self.coulomb.any() or self.armature.any())
@@ -130,29 +137,28 @@ def from_values(values, n):
 
 def inertia(friction, mass):
     """A = M(q) + diag(I_a) (n, n), kg m^2 or kg: the joints' inertia with their rotors (`friction` a JointFriction)."""
-    return mass + np.diag(friction.armature)
+    return mass + friction.armature_matrix
 
 
 class StepPlan:
     """One step of the equations above, formed before its torque is known: `friction` a JointFriction, inertia
     A = M(q) + diag(I_a) (n, n) (`inertia()`), qd (n,) at the step's start, r0 (n,) the part of r known ahead
-    (tau_env - b qd - h + tau_c), dt s; `start` the last step's active sets or None (coulomb_sets). W = dt A^-1
-    and the start's ActiveSets are formed here; `solve(x)` adds the torque x (n,) to r = r0 + x and finishes
-    the step: what runs once the command is in."""
+    (tau_env - b qd - h + tau_c), dt s; `start` the last step's active sets or None (coulomb_sets). A / dt, the
+    known part A qd / dt + r0 of b and the start's ActiveSets are formed here; `solve(x)` adds the torque x (n,)
+    to r = r0 + x and finishes the step: what runs once the command is in."""
 
     def __init__(self, friction, inertia, qd, r0, dt, start=None):
         self.friction, self.qd, self.dt = friction, qd, dt
-        self.W = dt * np.linalg.inv(inertia)
-        self.v0 = qd + self.W @ r0                      # qd_free = dt A^-1 (A qd / dt + r) less W x
-        self.sets = None if start is None or not friction.coulomb.any() else ActiveSets(self.W, friction.coulomb, *start)
+        self.A_dt = inertia / dt
+        self.b0 = self.A_dt @ qd + r0
+        self.sets = None if start is None else ActiveSets(self.A_dt, friction.coulomb, *start)
 
     def solve(self, x=None):
         """(f (n,), qdd (n,), tau_loss (n,), sets) for r = r0 + x (x (n,) N m or N, None: 0): f the implicit
         Coulomb torque, qdd = (qd+ - qd) / dt the step's acceleration, tau_loss = b qd - f + I_a qdd what friction
         and armature take from the motor torque, sets the solver's active sets (coulomb_sets)."""
         fr = self.friction
-        v_free = self.v0 if x is None else self.v0 + self.W @ x
-        f, v, sets = solve_sets(self.W, v_free, fr.coulomb, self.sets)
+        f, v, sets = solve_sets(self.A_dt, self.b0 if x is None else self.b0 + x, fr.coulomb, self.sets)
         qdd = (v - self.qd) / self.dt
         return f, qdd, fr.viscous * self.qd - f + fr.armature * qdd, sets
 
@@ -169,45 +175,37 @@ def coulomb_torque(A, b, dt, fc):
     A (n, n) the inertia M + diag(I_a), kg m^2 or kg; b = A qd / dt + r (n,), N m or N (r: every torque
     but Coulomb friction, less h); dt s; fc (n,) >= 0 the breakaway torques. Solves
         A (qd+ - qd) / dt = r + f,   f_i = -fc_i sign(qd+_i) where qd+_i != 0,  |f_i| <= fc_i where qd+_i = 0
-    (f_i = 0 where fc_i = 0), written with W = dt A^-1 and qd_free = W b (the velocities without friction):
-        qd+ = qd_free + W f,
-    by active sets (solve_sets)."""
+    (f_i = 0 where fc_i = 0), that is (A / dt) qd+ - f = b, by active sets (solve_sets)."""
     f, v, _ = coulomb_sets(A, b, dt, fc)
     return f, v
 
 
 def coulomb_sets(A, b, dt, fc, start=None):
     """(f, qd+, sets): coulomb_torque, its active sets starting from `start` instead of the first guess when given,
-    and the consistent sets it ended with (None after the fallback): solve_sets(dt A^-1, dt A^-1 b, fc, start)."""
-    W = dt * np.linalg.inv(A)
-    return solve_sets(W, W @ b, fc, start)
+    and the consistent sets it ended with (None after the fallback): solve_sets(A / dt, b, fc, start)."""
+    return solve_sets(A / dt, b, fc, start)
 
 
-def solve_sets(W, v_free, fc, start=None):
-    """(f, qd+, sets) of qd+ = v_free + W f under the Coulomb conditions (coulomb_torque), by active sets: W =
-    dt A^-1 (n, n), v_free (n,) the velocities without friction, fc (n,) >= 0; `start` None, the sets (stuck
-    (n,) bool, the slipping joints' directions (n,) of -1, 0, 1) or their ActiveSets for this W. For stuck joints
-    S (qd+_S = 0) and slipping joints N (f_N = -fc_N s_N):
-        f_S = -W_SS^-1 (v_free + W_:N f_N)_S,   qd+ = v_free + W f.
-    First guess: a joint is stuck when its own friction alone could stop it with the others free,
-    |v_free,i| <= W_ii fc_i, else it slips along v_free,i. Then a stuck joint needing more than fc_i breaks
-    away (slips against its holding torque) and a slipping joint whose velocity would reverse sticks: all such
-    joints at once, and the first of them alone (least index, as Murty's pivoting) once a guess repeats;
-    until consistent (one pass while the arm holds still or keeps sliding the same way, the stepping World
-    starting from the last step's sets), `_coordinate_descent` if that does not end. With A positive definite
-    the solution is unique: the start changes the passes, not f and qd+."""
-    has = fc > 0.0
-    if not np.count_nonzero(has):
-        return np.zeros(len(fc)), v_free, None
+def solve_sets(A_dt, b, fc, start=None):
+    """(f, qd+, sets) of (A / dt) qd+ - f = b under the Coulomb conditions (coulomb_torque), by active sets: A_dt =
+    A / dt (n, n), b = A qd / dt + r (n,), fc (n,) >= 0; `start` None, the sets (stuck (n,) bool, the slipping
+    joints' directions (n,) of -1, 0, 1) or their ActiveSets for this A_dt. For stuck joints S (qd+_S = 0) and
+    slipping joints N (f_N = -fc_N s_N), the unknowns z_i (qd+_i on N, f_i on S) solve one linear system:
+        B z = b + f_N,   B = A_dt with column i replaced by -e_i for every i in S
+    (B is invertible: det B = +-det A_dt,NN > 0). First guess (_first_guess): a joint is stuck when its own
+    friction alone could stop it with the others free, else it slips along its free velocity. Then a stuck
+    joint needing more than fc_i breaks away (slips against its holding torque) and a slipping joint whose
+    velocity would reverse sticks: all such joints at once, and the first of them alone (least index, as
+    Murty's pivoting) once a guess repeats; until consistent (one pass while the arm holds still or keeps
+    sliding the same way, the stepping World starting from the last step's sets), `_coordinate_descent` if that
+    does not end. With A positive definite the solution is unique: the start changes the passes, not f and qd+."""
     if isinstance(start, ActiveSets):
         sets = start
-    elif start is None:
-        sets = ActiveSets(W, fc, has & (np.abs(v_free) <= W.diagonal() * fc), np.sign(v_free))
     else:
-        sets = ActiveSets(W, fc, *start)
+        sets = ActiveSets(A_dt, fc, *(_first_guess(A_dt, b, fc) if start is None else start))
     seen, least_index = set(), False
     for _ in range(4 * len(fc) + 4):
-        f, v, wrong = sets.solve(v_free)
+        f, v, wrong = sets.solve(b)
         if wrong is None:                               # at once on most steps
             return f, v, (sets.stuck, sets.sign)
         stuck, sign = sets.stuck, sets.sign
@@ -216,46 +214,44 @@ def solve_sets(W, v_free, fc, start=None):
         seen.add(key)
         if least_index:
             wrong[np.argmax(wrong) + 1:] = False
-        sets = ActiveSets(W, fc, stuck ^ wrong, np.where(stuck & wrong, -np.sign(f), sign))
+        sets = ActiveSets(A_dt, fc, stuck ^ wrong, np.where(stuck & wrong, -np.sign(f), sign))
+    W = np.linalg.inv(A_dt)
+    v_free = W @ b
     f = _coordinate_descent(W, v_free, fc)
-    f_exact, v, wrong = ActiveSets(W, fc, has & (np.abs(f) < fc * (1.0 - 1e-9)), -np.sign(f)).solve(v_free)
+    f_exact, v, wrong = ActiveSets(A_dt, fc, (fc > 0.0) & (np.abs(f) < fc * (1.0 - 1e-9)), -np.sign(f)).solve(b)
     return (f_exact, v, None) if wrong is None else (f, v_free + W @ f, None)
+
+
+def _first_guess(A_dt, b, fc):
+    """(stuck, sign): a joint with friction is stuck when its own friction alone could stop it with the others
+    free, |v_free,i| <= W_ii fc_i (W = A_dt^-1 = dt A^-1, v_free = W b the velocities without friction), else it
+    slips along v_free,i."""
+    has = fc > 0.0
+    if not np.count_nonzero(has):
+        return has, np.zeros(len(fc))
+    W = np.linalg.inv(A_dt)
+    v_free = W @ b
+    return has & (np.abs(v_free) <= W.diagonal() * fc), np.sign(v_free)
 
 
 class ActiveSets:
     """solve_sets for the stuck joints `stuck` (n,) bool and the slipping joints' directions `sign` (n,), with
-    what depends on W alone formed once: the slipping joints' friction f_N = -fc_N s_N, W f_N and W_SS^-1."""
+    what depends on A_dt and the sets alone formed once: the slipping joints' friction f_N = -fc_N s_N and B^-1."""
 
-    def __init__(self, W, fc, stuck, sign):
+    def __init__(self, A_dt, fc, stuck, sign):
         self.stuck, self.sign = stuck, sign
         self.f = np.where(stuck, 0.0, -fc * sign)      # the slipping joints' friction (stuck ones: solve())
-        self.w_f = W @ self.f
-        self.held = np.flatnonzero(stuck)
-        self.slipping = (fc > 0.0) & ~stuck
-        if len(self.held):
-            self.K = np.linalg.inv(W[self.held[:, None], self.held])
-            self.W_S = W[:, self.held]
-            self.limit = fc[self.held] * (1.0 + BREAKAWAY_RTOL)
+        self.B_inv = np.linalg.inv(np.where(stuck, -np.eye(len(fc)), A_dt))   # column i of -I where i is stuck
+        self._along = np.where(stuck, 0.0, sign * (fc > 0.0))            # s_i of the slipping joints, else 0
+        self._limit = np.where(stuck, fc * (1.0 + BREAKAWAY_RTOL), np.inf)  # fc_i of the stuck joints, else inf
 
-    def solve(self, v_free):
+    def solve(self, b):
         """(f, qd+, wrong) for these sets; wrong (n,) bool marks the joints whose assumption fails (a stuck joint
         needing more than fc_i, a slipping one whose velocity would reverse), None when none does."""
-        v = v_free + self.w_f
-        held = self.held
-        if not len(held):
-            f = self.f
-        else:
-            f_S = -(self.K @ v[held])
-            v += self.W_S @ f_S
-            v[held] = 0.0
-            f = self.f.copy()
-            f[held] = f_S
-        reversing = self.slipping & (v * self.sign < 0.0)   # a stuck one has v_i = 0
-        if len(held):
-            breaking = np.abs(f_S) > self.limit
-            if np.count_nonzero(breaking):
-                reversing[held[breaking]] = True
-        return f, v, reversing if np.count_nonzero(reversing) else None
+        stuck = self.stuck
+        z = self.B_inv @ (b + self.f)
+        wrong = (z * self._along < 0.0) | (np.abs(z) > self._limit)
+        return np.where(stuck, z, self.f), np.where(stuck, 0.0, z), wrong if np.count_nonzero(wrong) else None
 
 
 def _coordinate_descent(W, v_free, fc, sweeps=1000, tol=1e-15):
