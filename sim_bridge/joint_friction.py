@@ -204,7 +204,7 @@ def solve_sets(A_dt, b, fc, start=None):
     else:
         sets = ActiveSets(A_dt, fc, *(_first_guess(A_dt, b, fc) if start is None else start))
     seen, least_index = set(), False
-    for _ in range(4 * len(fc) + 4):
+    for _ in range(max_passes(len(fc))):
         f, v, wrong = sets.solve(b)
         if wrong is None:                               # at once on most steps
             return f, v, (sets.stuck, sets.sign)
@@ -220,6 +220,11 @@ def solve_sets(A_dt, b, fc, start=None):
     f = _coordinate_descent(W, v_free, fc)
     f_exact, v, wrong = ActiveSets(A_dt, fc, (fc > 0.0) & (np.abs(f) < fc * (1.0 - 1e-9)), -np.sign(f)).solve(b)
     return (f_exact, v, None) if wrong is None else (f, v_free + W @ f, None)
+
+
+def max_passes(n):
+    """Active-set passes solve_sets makes on n joints before its fallback: 4 n + 4."""
+    return 4 * n + 4
 
 
 def _first_guess(A_dt, b, fc):

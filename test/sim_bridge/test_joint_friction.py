@@ -150,6 +150,24 @@ def test_the_fallback_solver_finds_the_same_friction():
                                    atol=1e-9 * fc.max())
 
 
+def test_the_fallback_inside_the_solver_ends_at_the_active_sets_solution(monkeypatch):
+    """With no active-set pass allowed, solve_sets takes its fallback (projected Gauss-Seidel, then the sets it
+    points to) and returns the f and qd+ of the active sets, bit for bit, and no sets."""
+    rng = np.random.default_rng(8)
+    cases = []
+    for _ in range(100):
+        n = int(rng.integers(1, 8))
+        a = rng.normal(size=(n, n))
+        A = a @ a.T + 0.5 * np.eye(n)
+        cases.append((A, A @ rng.normal(size=n) * 0.01 / DT + rng.normal(size=n), rng.uniform(0.1, 2.0, n)))
+    expected = [coulomb_torque(A, b, DT, fc) for A, b, fc in cases]
+    monkeypatch.setattr(joint_friction, 'max_passes', lambda n: 0)
+    for (A, b, fc), (f, v) in zip(cases, expected):
+        f_fallback, v_fallback, sets = coulomb_sets(A, b, DT, fc)
+        assert sets is None
+        assert np.array_equal(f_fallback, f) and np.array_equal(v_fallback, v)
+
+
 # -- viscous friction --------------------------------------------------------------------------------------
 def test_viscous_friction_decays_a_free_velocity_exponentially(world_on):
     """force_1dof, m = 1 kg, b = 0.5 N s/m: qd_k = qd_0 (1 - b dt / m)^k (semi-implicit Euler of
