@@ -192,13 +192,14 @@ def solve_sets(A_dt, b, fc, start=None):
     joints' directions (n,) of -1, 0, 1) or their ActiveSets for this A_dt. For stuck joints S (qd+_S = 0) and
     slipping joints N (f_N = -fc_N s_N), the unknowns z_i (qd+_i on N, f_i on S) solve one linear system:
         B z = b + f_N,   B = A_dt with column i replaced by -e_i for every i in S
-    (B is invertible: det B = +-det A_dt,NN > 0). First guess (_first_guess): a joint is stuck when its own
-    friction alone could stop it with the others free, else it slips along its free velocity. Then a stuck
-    joint needing more than fc_i breaks away (slips against its holding torque) and a slipping joint whose
-    velocity would reverse sticks: all such joints at once, and the first of them alone (least index, as
-    Murty's pivoting) once a guess repeats; until consistent (one pass while the arm holds still or keeps
-    sliding the same way, the stepping World starting from the last step's sets), `_coordinate_descent` if that
-    does not end. With A positive definite the solution is unique: the start changes the passes, not f and qd+."""
+    (B is invertible: det B = +-det A_dt,NN, non-zero as A is positive definite). First guess (_first_guess): a
+    joint is stuck when its own friction alone could stop it with the others free, else it slips along its free
+    velocity. Then a stuck joint needing more than fc_i breaks away (slips against its holding torque) and a
+    slipping joint whose velocity would reverse sticks: all such joints at once, and the first of them alone
+    (least index, as Murty's pivoting) once a guess repeats; until consistent (one pass while the arm holds
+    still or keeps sliding the same way, the stepping World starting from the last step's sets),
+    `_coordinate_descent` if that does not end. With A positive definite the solution is unique: the start
+    changes the passes, not f and qd+."""
     if isinstance(start, ActiveSets):
         sets = start
     else:
