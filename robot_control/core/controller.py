@@ -31,6 +31,9 @@ from robot_control.core.timeline import Timeline
 from robot_control.core.velocity import DEFAULT_CUTOFF_HZ, METHOD, VelocityEstimator
 from robot_control.core.watchdog import StateWatchdog
 
+#: what the law does when states come back after a watchdog trip (check_watchdog), as the node logs it
+RESTARTED = 'restarting from the current state'
+RESUMED = 'resuming where the law was: the state follows the last answered one within state_timeout'
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
 
@@ -68,6 +71,7 @@ class Controller:
         self._reader = JointStateReader(config.joints)
         self._velocity = VelocityEstimator(config.n)
         self._cutoff = 0.0                  # f_c of the last state's velocity estimate, Hz (0: measured)
+        self._restarting = True             # the last answered state (re)started the law
         self._pairing = WrenchPairing()
         self._pairs = needs_wrench(config)
         self._f_meas = np.zeros(config.model.task_dim)
@@ -148,7 +152,10 @@ class Controller:
         core = self.core
         try:
             q, qd = self._reader.read_fields(names, positions, velocities)
+            if self.watchdog.tripped and core.active and not self.timeline.continues(stamp_ns):
+                core.stop()                         # the robot's time went on unanswered: restart (check_watchdog)
             t = self.timeline.accept(stamp_ns, running=core.active)
+            self._restarting = not core.active
         except ValueError as exc:
             self.counters.reject('joint_states', exc)
             return Rejection(stamp_ns, 'joint_states', str(exc))
@@ -174,11 +181,13 @@ class Controller:
         return out
 
     def sent(self, node_ns, steady_ns, tick_ns):
-        """A Command was published at these clock readings, tick_ns of wall time after its state came:
-        True when that ends a watchdog trip (the states are back)."""
+        """A Command was published at these clock readings, tick_ns of wall time after its state came: when that
+        ends a watchdog trip (the states are back), what the law did (text for the log), else None."""
         self.counters.commands_sent += 1
         self.counters.tick(tick_ns)
-        return self.watchdog.fresh(node_ns, steady_ns)
+        if not self.watchdog.fresh(node_ns, steady_ns):
+            return None
+        return RESTARTED if self._restarting else RESUMED
 
     def law_warning(self, steady_ns):
         """At most once per LAW_WARN_PERIOD s of the monotonic clock (steady_ns): a warning when the law kept
@@ -196,12 +205,12 @@ class Controller:
         self._pairing = WrenchPairing()
 
     def check_watchdog(self, node_ns, steady_ns):
-        """The watchdog's check at these clock readings: True when it trips now (the law stops; the next
-        state restarts it)."""
-        if self.core.active and self.watchdog.check(node_ns, steady_ns):
-            self.core.stop()
-            return True
-        return False
+        """The watchdog's check at these clock readings: True when it trips now. Nothing is commanded while no
+        state comes (a command only answers a state); the next state decides. Stamped within state_timeout of
+        the last answered one, the robot's own time went on without a gap (the machine or a process was held
+        up, e.g. a lockstep simulator waiting for its answer): the law resumes where it was. Stamped further
+        away (the robot ran unanswered, or a simulator restarted its clock), it restarts from that state."""
+        return self.core.active and self.watchdog.check(node_ns, steady_ns)
 
     def state_age(self, node_ns, steady_ns):
         """Seconds since the last answered state (None before the first)."""

@@ -24,7 +24,7 @@ class Timeline:
         if stamp_ns < 0:
             raise ArgumentError('header.stamp', f'negative time {units.seconds(stamp_ns):.9f} s')
         last = self.last_ns
-        if running and last is not None and abs(stamp_ns - last) > self.max_jump * units.NS_PER_S:
+        if running and not self.continues(stamp_ns) and last is not None:
             raise ArgumentError('header.stamp', f'{units.seconds(stamp_ns - last):+.6g} s from the previous state, '
                                                 f'more than state_timeout {self.max_jump:g} s (a clock reset '
                                                 'restarts the controller once the watchdog trips)')
@@ -32,6 +32,11 @@ class Timeline:
             self.epoch_ns = stamp_ns
         self.last_ns = stamp_ns
         return units.seconds(stamp_ns - self.epoch_ns)
+
+    def continues(self, stamp_ns):
+        """True when a state stamped `stamp_ns` lies within max_jump of the last accepted one (the time line goes
+        on without a gap); False before the first."""
+        return self.last_ns is not None and abs(stamp_ns - self.last_ns) <= self.max_jump * units.NS_PER_S
 
     def time_of(self, stamp_ns):
         """The core time of a reference's header.stamp; None for 0 (start now) or before the first state."""

@@ -220,7 +220,7 @@ class ControllerSession:
         if self._core.goal.outcome:
             self._inputs.report_goal()
         if recovered:
-            self.log.info('joint_states are back: restarting from the current state')
+            self.log.info(f'joint_states are back: {recovered}')
         guard = self._core.contact_guard
         if guard is not None and guard.trips != self._contact_trips:
             self._contact_trips = guard.trips

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from robot_control.core.config import ControllerConfig
-from robot_control.core.controller import Command, Controller, Rejection
+from robot_control.core.controller import RESTARTED, RESUMED, Command, Controller, Rejection
 from robot_control.core.tick import ControllerCore
 from robot_control.gains import design
 from robot_control.laws.force_task import gain_params
@@ -86,14 +86,43 @@ def test_the_watchdog_stops_the_law_and_the_next_state_restarts_it():
     assert type(ctrl.step(0, ['theta1', 'r'], [0.1, 0.5], [0.0, 0.0])) is Command
     assert not ctrl.sent(0, 0, 1000)
     assert not ctrl.check_watchdog(400 * MS, 400 * MS)
-    assert ctrl.check_watchdog(400 * MS, 600 * MS) and not ctrl.core.active
+    assert ctrl.check_watchdog(400 * MS, 600 * MS) and ctrl.watchdog.tripped
     assert not ctrl.check_watchdog(400 * MS, 700 * MS)                          # trips once
     assert type(ctrl.step(5_000 * MS, ['theta1', 'r'], [0.2, 0.5], [0.0, 0.0])) is Command   # clock jumped: accepted
-    assert ctrl.sent(5_000 * MS, 5_000 * MS, 1000) and ctrl.core.restarts == 1
+    assert ctrl.sent(5_000 * MS, 5_000 * MS, 1000) == RESTARTED and ctrl.core.restarts == 1
     np.testing.assert_array_equal(ctrl.core.joint_reference[0], [0.2, 0.5])
     assert ctrl.counters.commands_sent == 2 and ctrl.counters.tick_count == 2
     levels = [s[1] for s in ctrl.statuses('c', 5_000 * MS, 5_000 * MS)]
     assert levels[0] == 'OK'
+
+
+def test_states_back_within_state_timeout_of_the_last_one_resume_the_law_where_it_was():
+    """A trip while the robot's own time stood still (a lockstep simulator held up with the machine): the next
+    state, stamped one period after the last answered one, resumes the law. Its reference (a move under way) and
+    its integral go on: the same torque, bit for bit, as from a controller that saw no trip; a later trip whose
+    next state comes more than state_timeout on restarts from that state."""
+    names = ['theta1', 'r']
+    ctrls = [Controller(polar().replace(integral=True), 0.5) for _ in range(2)]
+    q = lambda k: [0.1 + 1e-4 * k, 0.5 + 5e-5 * k]                              # noqa: E731
+    for k in range(50):
+        taus = [ctrl.step(k * MS, names, q(k), [0.1, 0.05]).tau.copy() for ctrl in ctrls]
+        for ctrl in ctrls:
+            ctrl.sent(k * MS, k * MS, 1000)
+            if k == 0:
+                ctrl.core.set_trajectory([1.0], [[0.4, 0.6]])
+        np.testing.assert_array_equal(*taus)
+    tripped = ctrls[0]
+    assert tripped.check_watchdog(49 * MS, 49 * MS + 600 * MS) and tripped.watchdog.tripped
+    assert np.all(tripped.core.integral_value != 0.0)
+    for k in range(50, 60):
+        taus = [ctrl.step(k * MS, names, q(k), [0.1, 0.05]).tau.copy() for ctrl in ctrls]
+        assert tripped.sent(k * MS, k * MS, 1000) == (RESUMED if k == 50 else None)
+        np.testing.assert_array_equal(*taus)
+    assert tripped.core.restarts == 0 and tripped.watchdog.trips == 1
+    assert tripped.check_watchdog(59 * MS, 59 * MS + 600 * MS)
+    assert type(tripped.step(700 * MS, names, q(60), [0.1, 0.05])) is Command
+    assert tripped.sent(700 * MS, 700 * MS, 1000) == RESTARTED and tripped.core.restarts == 1
+    np.testing.assert_array_equal(tripped.core.joint_reference[0], q(60))     # holds where the robot is
 
 
 # -- the law's warnings for the node's log ------------------------------------------------------------------

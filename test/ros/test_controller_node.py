@@ -765,7 +765,6 @@ def test_watchdog_trips_and_recovers_from_the_current_state(ros_context):
         assert spin_until(ex, lambda: ctrl.watchdog_tripped)
         assert spin_until(ex, lambda: (_status(robot, 'joint_states watchdog') or ('',))[0] == 'ERROR')
         assert len(robot.commands) == sent                      # nothing commanded while tripped
-        assert not ctrl.core.active
         q, qd = np.array([0.3, 0.7]), np.array([0.05, 0.0])
         cmd, ref, err = robot.step(ex, POLAR_JOINTS, q, qd, T0_NS + 5_000 * DT_NS)
         assert not ctrl.watchdog_tripped and ctrl.trips == 1 and ctrl.core.restarts == 1
@@ -775,6 +774,22 @@ def test_watchdog_trips_and_recovers_from_the_current_state(ros_context):
         want = computed_torque(make_model('polar_two_link', m=2.0, gravity=9.8), q, qd, q, np.zeros(2),
                                np.zeros(2), gains, np.zeros(2))
         np.testing.assert_allclose(cmd[3], want, rtol=0, atol=1e-12)
+        assert spin_until(ex, lambda: _status(robot, 'joint_states watchdog')[0] == 'OK')
+
+
+def test_watchdog_trips_and_states_that_follow_the_last_one_resume_the_law(ros_context):
+    """A trip while the robot's time stood still (the states' stamps go on one period after the last answered
+    one, as a lockstep simulator's do when the machine held it up): the law resumes, its integral and
+    reference as they were; the log says so."""
+    with rig(ros_context, **POLAR, integral=True, state_timeout=0.2) as (ex, ctrl, robot):
+        for k in range(20):
+            robot.step(ex, POLAR_JOINTS, [0.1, 0.5] if k == 0 else [0.09, 0.49], [0.0, 0.0], T0_NS + k * DT_NS)
+        integral, reference = ctrl.core.integral_value.copy(), ctrl.core.joint_reference[0].copy()
+        assert spin_until(ex, lambda: ctrl.watchdog_tripped)
+        cmd, ref, err = robot.step(ex, POLAR_JOINTS, [0.09, 0.49], [0.0, 0.0], T0_NS + 20 * DT_NS)
+        assert not ctrl.watchdog_tripped and ctrl.trips == 1 and ctrl.core.restarts == 0
+        np.testing.assert_array_equal(ref[1], reference)        # the reference goes on
+        assert np.all(err[3] != 0.0) and np.all(np.sign(err[3]) == np.sign(integral))   # the integral goes on
         assert spin_until(ex, lambda: _status(robot, 'joint_states watchdog')[0] == 'OK')
 
 
