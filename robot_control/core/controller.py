@@ -101,6 +101,11 @@ class Controller:
         self.watchdog.timeout = self.timeline.max_jump = timeout
 
     @property
+    def running(self):
+        """True while the law runs: a state answered, and no watchdog trip since (references are taken then)."""
+        return self.core.active and not self.watchdog.tripped
+
+    @property
     def needs_wrench(self):
         """True while the law reads the measured force (ft_sensor/wrench): states pair with wrenches."""
         return self._pairs

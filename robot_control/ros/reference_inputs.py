@@ -20,7 +20,7 @@ class ReferenceInputs:
         an empty one cancels the motion and holds the current position."""
         try:
             goal = conversions.trajectory_goal(msg, self._s._joints, self._s.allow_partial)
-            if not self._s.core.active:
+            if not self._s.controller.running:
                 raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
             if goal.empty:
                 self._s.core.hold_position()
@@ -72,7 +72,7 @@ class ReferenceInputs:
         try:
             if cfg.control_law.tracks != 'task':
                 raise ValueError(f'law {cfg.law} follows no task-space target (impedance and hybrid do)')
-            if not self._s.core.active:
+            if not self._s.controller.running:
                 raise ValueError('controller not running (no joint_states yet, or watchdog tripped)')
             position, quaternion = conversions.pose_target(msg, cfg.model.base_frame)
             stamp_ns = conversions.stamp_to_ns(msg.header.stamp)

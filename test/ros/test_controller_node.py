@@ -786,6 +786,9 @@ def test_watchdog_trips_and_states_that_follow_the_last_one_resume_the_law(ros_c
             robot.step(ex, POLAR_JOINTS, [0.1, 0.5] if k == 0 else [0.09, 0.49], [0.0, 0.0], T0_NS + k * DT_NS)
         integral, reference = ctrl.core.integral_value.copy(), ctrl.core.joint_reference[0].copy()
         assert spin_until(ex, lambda: ctrl.watchdog_tripped)
+        msg = cv.joint_trajectory(POLAR_JOINTS, [0.5], [[0.1, 0.2]])       # no robot to move: refused meanwhile
+        robot.send_until(ex, robot.traj_pub, msg, lambda: ctrl.rejected['joint_trajectory'] == 1)
+        assert 'controller not running' in ctrl.last_rejection and ctrl.trajectories_accepted == 0
         cmd, ref, err = robot.step(ex, POLAR_JOINTS, [0.09, 0.49], [0.0, 0.0], T0_NS + 20 * DT_NS)
         assert not ctrl.watchdog_tripped and ctrl.trips == 1 and ctrl.core.restarts == 0
         np.testing.assert_array_equal(ref[1], reference)        # the reference goes on
