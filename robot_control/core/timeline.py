@@ -24,7 +24,7 @@ class Timeline:
         if stamp_ns < 0:
             raise ArgumentError('header.stamp', f'negative time {units.seconds(stamp_ns):.9f} s')
         last = self.last_ns
-        if running and not self.continues(stamp_ns) and last is not None:
+        if running and last is not None and not self.continues(stamp_ns):
             raise ArgumentError('header.stamp', f'{units.seconds(stamp_ns - last):+.6g} s from the previous state, '
                                                 f'more than state_timeout {self.max_jump:g} s (a clock reset '
                                                 'restarts the controller once the watchdog trips)')
