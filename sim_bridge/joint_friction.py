@@ -40,6 +40,7 @@ armature's torque follow the acceleration the constraints allow (exact while tau
 pressing on the surface; one step late when it changes, e.g. at impact). While the brakes hold, the
 brakes alone act.
 """
+import functools
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -246,9 +247,10 @@ class ActiveSets:
 
     def __init__(self, A_dt, fc, stuck, sign):
         self.stuck, self.sign = stuck, sign
-        self.f = np.where(stuck, 0.0, -fc * sign)      # the slipping joints' friction (stuck ones: solve())
-        self.B_inv = np.linalg.inv(np.where(stuck, -np.eye(len(fc)), A_dt))   # column i of -I where i is stuck
-        self._along = np.where(stuck, 0.0, sign * (fc > 0.0))            # s_i of the slipping joints, else 0
+        slipping = ~stuck
+        self.f = -fc * sign * slipping                  # the slipping joints' friction (stuck ones: solve())
+        self.B_inv = np.linalg.inv(np.where(stuck, _minus_identity(len(fc)), A_dt))   # column i of -I where i is stuck
+        self._along = sign * (slipping & (fc > 0.0))    # s_i of the slipping joints with friction, else 0
         self._limit = np.where(stuck, fc * (1.0 + BREAKAWAY_RTOL), np.inf)  # fc_i of the stuck joints, else inf
 
     def solve(self, b):
@@ -258,6 +260,14 @@ class ActiveSets:
         z = self.B_inv @ (b + self.f)
         wrong = (z * self._along < 0.0) | (np.abs(z) > self._limit)
         return np.where(stuck, z, self.f), np.where(stuck, 0.0, z), wrong if np.count_nonzero(wrong) else None
+
+
+@functools.lru_cache(maxsize=8)
+def _minus_identity(n):
+    """-I (n, n), read-only: the columns B takes for the stuck joints (ActiveSets)."""
+    out = -np.eye(n)
+    out.setflags(write=False)
+    return out
 
 
 def _coordinate_descent(W, v_free, fc, sweeps=1000, tol=1e-15):

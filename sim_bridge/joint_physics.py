@@ -71,13 +71,11 @@ class JointPhysics:
         return (tau + f - self.friction.armature * qdd).tolist(), last, loss, sets
 
     def _step_ahead(self):
-        """What a step needs of the state alone: (q, qd of every movable joint (lists), M (n, n), the constraint
+        """What a step needs of the state alone: (q, qd of every movable joint (tuples), M (n, n), the constraint
         torque assumed tau_c (n,) or 0, the joint_friction.StepPlan with r0 = tau_c - b qd - h, h = C qd + g)
         of the controlled joints; the torque x = tau + tau_env (+ J^T F) comes with the command."""
         c, body = self._client, self._body
-        states = p.getJointStates(body, self._movable, physicsClientId=c)
-        q_all = [s[0] for s in states]
-        qd_all = [s[1] for s in states]
+        q_all, qd_all, _, _ = zip(*p.getJointStates(body, self._movable, physicsClientId=c))
         mass = np.array(p.calculateMassMatrix(body, q_all, physicsClientId=c))
         h = np.array(p.calculateInverseDynamics(body, q_all, qd_all, self._zeros, physicsClientId=c))
         qd = np.array(qd_all)

@@ -216,7 +216,7 @@ class Sensors:
         """Measure the World now (after a tick) into the delay line; the reading becomes the line's oldest."""
         noise = self._noise() if self._ahead is None else self._ahead
         self._ahead = None
-        q, qd, tau = (np.array(v) for v in self._world.state_values())
+        q, qd, tau = np.array(self._world.state_values())
         if noise[0] is not None:
             q = q + noise[0]
         encoder = self._encoder
