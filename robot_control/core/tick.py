@@ -59,7 +59,8 @@ def _config(config):
 
 def measure_task(cfg, q, qd, f_meas):
     """(x, xd, J, Jdot_qd, f, fdot): the task state, and on the force axes of the law's force setup
-    (Law.force_task) f, fdot (N, N/s) (none: None, None)."""
+    (Law.force_task) f, fdot (N, N/s) (none: None, None). f_meas: the measured force (m,), a finite float64
+    array (checked where it entered), or None (ArgumentError with force_feedback 'sensor')."""
     x, J, Jdot_qd = cfg.model._task(q, qd)
     xd = J @ qd
     task = cfg.control_law.force_task
@@ -70,7 +71,7 @@ def measure_task(cfg, q, qd, f_meas):
     if task.force_feedback == 'sensor':
         if f_meas is None:
             raise ArgumentError('f_meas', "required with force_feedback 'sensor'")
-        f = validation.vector('f_meas', f_meas, cfg.model.task_dim)[mask]
+        f = f_meas[mask]
     if task.force_lead_time:
         f = f + task.force_lead_time * fdot
     return x, xd, J, Jdot_qd, f, fdot
@@ -277,13 +278,14 @@ class ControllerCore:
     def update(self, t, q, qd, f_meas=None):
         """Torque (n,) for the state (q, qd) at time t (s); f_meas (m,) measured task forces, N (required
         with force_feedback 'sensor' by laws that use force). Checks its arguments (ArgumentError)."""
-        n = self._cfg.n
-        return self.update_checked(validation.scalar('t', t), validation.vector('q', q, n),
-                                   validation.vector('qd', qd, n), f_meas)
+        n, m = self._cfg.n, self._cfg.model.task_dim
+        return self.update_checked(validation.scalar('t', t), validation.vector('q', q, n), validation.vector('qd', qd, n),
+                                   None if f_meas is None else validation.vector('f_meas', f_meas, m))
 
     def update_checked(self, t, q, qd, f_meas=None):
         """update() on a state known to be valid (t a finite float, q and qd finite float64 (n,) arrays,
-        as robot_control.core.joint_states.JointStateReader gives them)."""
+        as robot_control.core.joint_states.JointStateReader gives them; f_meas None or a finite float64 (m,)
+        array, as Controller.step checks it)."""
         law = self._cfg.control_law
         state = State(t, q, qd, *measure_task(self._cfg, q, qd, f_meas)) if law.needs_task_space else State(t, q, qd)
         self._state, self._f_meas = state, f_meas

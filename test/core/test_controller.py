@@ -81,7 +81,9 @@ def test_a_law_without_the_measured_force_answers_at_once_and_a_switch_releases_
     assert len(list(ctrl.state_arrived(MS, names, q, [0.0, 0.0]))) == 1
 
 
-def test_the_watchdog_stops_the_law_and_the_next_state_restarts_it():
+def test_the_watchdog_trips_once_and_a_state_after_a_clock_jump_restarts_the_law_from_there():
+    """A trip commands nothing until a state comes; one stamped beyond state_timeout of the last answered one
+    restarts the law from its position (the reference holds it)."""
     ctrl = Controller(polar(), 0.5)
     assert type(ctrl.step(0, ['theta1', 'r'], [0.1, 0.5], [0.0, 0.0])) is Command
     assert not ctrl.sent(0, 0, 1000)

@@ -113,7 +113,7 @@ CASES = {
                           np.array([0.2, 0.6]), None),
     'force': (lambda i: force_config(integral=i), np.array([0.1005]), None),
     'hybrid': (lambda i: xy_config(integral=i), np.array([0.3002, 0.1]), None),
-    'hybrid_sensor': (lambda i: xy_config(integral=i, feedback='sensor'), np.array([0.3002, 0.1]), [2.0, 0.0]),
+    'hybrid_sensor': (lambda i: xy_config(integral=i, feedback='sensor'), np.array([0.3002, 0.1]), np.array([2.0, 0.0])),
 }
 
 
