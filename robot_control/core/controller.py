@@ -33,7 +33,7 @@ from robot_control.core.watchdog import StateWatchdog
 
 #: what the law does when states come back after a watchdog trip (check_watchdog), as the node logs it
 RESTARTED = 'restarting from the current state'
-RESUMED = 'resuming where the law was: the state follows the last answered one within state_timeout'
+RESUMED = "resuming where the law was: the state is the robot's next tick after the last answered one"
 #: rejected-input sources, in the order /diagnostics lists them
 INPUTS = ('joint_states', 'joint_trajectory', 'wrench_reference', 'ft_sensor_wrench', 'target_pose', 'target_wrench')
 
@@ -157,7 +157,7 @@ class Controller:
         core = self.core
         try:
             q, qd = self._reader.read_fields(names, positions, velocities)
-            if self.watchdog.tripped and core.active and not self.timeline.continues(stamp_ns):
+            if self.watchdog.tripped and core.active and not self.timeline.follows(stamp_ns):
                 core.stop()                         # the robot's time went on unanswered: restart (check_watchdog)
             t = self.timeline.accept(stamp_ns, running=core.active)
             self._restarting = not core.active
@@ -211,10 +211,11 @@ class Controller:
 
     def check_watchdog(self, node_ns, steady_ns):
         """The watchdog's check at these clock readings: True when it trips now. Nothing is commanded while no
-        state comes (a command only answers a state); the next state decides. Stamped within state_timeout of
-        the last answered one, the robot's own time went on without a gap (the machine or a process was held
-        up, e.g. a lockstep simulator waiting for its answer): the law resumes where it was. Stamped further
-        away (the robot ran unanswered, or a simulator restarted its clock), it restarts from that state."""
+        state comes (a command only answers a state); the next state decides. The robot's next tick after the
+        last answered state (Timeline.follows: at most two of its steps later), its time stood still (the machine
+        or a process was held up, e.g. a lockstep simulator waiting for its answer): the law resumes where it
+        was. Any other stamp (the robot ran unanswered, or a simulator restarted its clock), it restarts from
+        that state."""
         return self.core.active and self.watchdog.check(node_ns, steady_ns)
 
     def state_age(self, node_ns, steady_ns):

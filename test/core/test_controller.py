@@ -98,7 +98,7 @@ def test_the_watchdog_trips_once_and_a_state_after_a_clock_jump_restarts_the_law
     assert levels[0] == 'OK'
 
 
-def test_states_back_within_state_timeout_of_the_last_one_resume_the_law_where_it_was():
+def test_states_back_at_the_robots_next_tick_resume_the_law_where_it_was():
     """A trip while the robot's own time stood still (a lockstep simulator held up with the machine): the next
     state, stamped one period after the last answered one, resumes the law. Its reference (a move under way) and
     its integral go on: the same torque, bit for bit, as from a controller that saw no trip; a later trip whose
@@ -125,6 +125,26 @@ def test_states_back_within_state_timeout_of_the_last_one_resume_the_law_where_i
     assert type(tripped.step(700 * MS, names, q(60), [0.1, 0.05])) is Command
     assert tripped.sent(700 * MS, 700 * MS, 1000) == RESTARTED and tripped.core.restarts == 1
     np.testing.assert_array_equal(tripped.core.joint_reference[0], q(60))     # holds where the robot is
+
+
+@pytest.mark.parametrize('back_ms', [300, 760, 1000, 1400])
+def test_a_restarted_clock_within_state_timeout_of_the_last_state_restarts_the_law(back_ms):
+    """A simulator killed at t = 1.05 s and started again: its clock starts at 0, and under load the controller
+    may first see a state stamped near the last answered one (before it, or after it, within state_timeout).
+    Not the robot's next tick: the law restarts from that state (the reference holds it, the integral is 0)."""
+    names = ['theta1', 'r']
+    ctrl = Controller(polar().replace(integral=True), 0.5)
+    for k in range(1000, 1051):
+        ctrl.step(k * MS, names, [0.1 + 1e-4 * (k - 1000), 0.5], [0.1, 0.0])
+        ctrl.sent(k * MS, k * MS, 1000)
+    ctrl.core.set_trajectory([1.0], [[0.4, 0.6]])
+    ctrl.step(1051 * MS, names, [0.106, 0.5], [0.1, 0.0])
+    ctrl.sent(1051 * MS, 1051 * MS, 1000)
+    assert ctrl.check_watchdog(1051 * MS, 1051 * MS + 600 * MS)
+    assert type(ctrl.step(back_ms * MS, names, [0.1, 0.5], [0.0, 0.0])) is Command
+    assert ctrl.sent(back_ms * MS, back_ms * MS, 1000) == RESTARTED and ctrl.core.restarts == 1
+    np.testing.assert_array_equal(ctrl.core.joint_reference[0], [0.1, 0.5])
+    assert np.all(ctrl.core.integral_value == 0.0) and np.all(ctrl.core.error[0] == 0.0)
 
 
 # -- the law's warnings for the node's log ------------------------------------------------------------------

@@ -107,6 +107,20 @@ def test_the_time_line_refuses_jumps_while_running_and_negative_stamps():
         line.accept(-1, running=False)
 
 
+def test_a_state_follows_the_last_one_when_it_is_the_robots_next_tick():
+    """The robot's tick is the last forward step within max_jump; the same stamp or up to two ticks later
+    follows, anything else does not (a restarted clock near the last stamp, a jump, time going back)."""
+    line = Timeline(0.5)
+    assert not line.follows(0)                                   # nothing accepted yet
+    line.accept(1000 * MS, running=False)
+    assert not line.follows(1001 * MS)                           # one state: no tick known yet
+    line.accept(1001 * MS, running=True)
+    assert line.follows(1001 * MS) and line.follows(1002 * MS) and line.follows(1003 * MS)
+    assert not line.follows(1004 * MS) and not line.follows(1300 * MS) and not line.follows(700 * MS)
+    line.accept(0, running=False)                                # a clock reset does not set the tick
+    assert line.step_ns == MS and line.follows(MS) and not line.follows(3 * MS)
+
+
 # -- the watchdog ---------------------------------------------------------------------------------------
 def test_the_watchdog_trips_on_the_larger_age_of_the_two_clocks_and_recovers():
     dog = StateWatchdog(0.5)
