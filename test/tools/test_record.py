@@ -618,6 +618,8 @@ def test_cli_signal_closes_a_readable_bag(ticker, tmp_path, signum):
         assert spin_until(executor, lambda: 'matched 1 publisher' in read_available(proc, early)
                           or proc.poll() is not None, 30.0)
         assert proc.poll() is None
+        # and our writer must have matched its reader: what it publishes before that reaches nobody
+        assert spin_until(executor, lambda: pub.get_subscription_count() >= 1, 30.0)
         first = state['i']
         assert spin_until(executor, lambda: state['i'] >= first + 40, WAIT)
         proc.send_signal(signum)
